@@ -1,0 +1,193 @@
+//! The validating scene reader: header and skeleton at open, reps on demand.
+
+use std::mem::size_of;
+use std::path::Path;
+
+use super::{BLOCK, FileHeader, FormatError, MAGIC, NodeRecord, RepMesh, RepRecord, VERSION};
+use crate::io::{ByteSource, FileSource};
+use crate::skeleton::{RepId, Skeleton};
+
+/// Scene-level facts stored in the header besides the skeleton.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SceneMeta {
+    /// Objects (glTF mesh instances) in the source.
+    pub object_count: u32,
+    /// Source triangles after instancing.
+    pub input_triangles: u64,
+}
+
+/// An opened scene: the validated header and skeleton in core, the source kept
+/// for reading reps.
+#[derive(Debug)]
+pub struct SceneFile<S: ByteSource = FileSource> {
+    source: S,
+    header: FileHeader,
+    skeleton: Skeleton,
+}
+
+impl SceneFile<FileSource> {
+    /// Opens and validates the scene file at `path` (reads no rep data).
+    pub fn open(path: &Path) -> Result<Self, FormatError> {
+        Self::from_source(FileSource::open(path)?)
+    }
+}
+
+impl<S: ByteSource> SceneFile<S> {
+    /// Reads and validates the header and the skeleton from `source`.
+    pub fn from_source(source: S) -> Result<Self, FormatError> {
+        let header = read_header(&source)?;
+        let mut bytes = vec![0u8; header.skeleton_len as usize];
+        source.read_at(header.skeleton_offset, &mut bytes)?;
+        let computed = crc32fast::hash(&bytes);
+        if computed != header.skeleton_crc {
+            return Err(FormatError::Checksum {
+                what: "skeleton".into(),
+                stored: header.skeleton_crc,
+                computed,
+            });
+        }
+        let node_bytes = header.node_count as usize * size_of::<NodeRecord>();
+        let nodes = bytes[..node_bytes]
+            .chunks_exact(size_of::<NodeRecord>())
+            .map(bytemuck::pod_read_unaligned)
+            .collect();
+        let reps = bytes[node_bytes..]
+            .chunks_exact(size_of::<RepRecord>())
+            .map(bytemuck::pod_read_unaligned)
+            .collect();
+        let skeleton = Skeleton { nodes, reps };
+        skeleton.validate(header.data_offset, header.data_offset + header.data_len)?;
+        Ok(Self {
+            source,
+            header,
+            skeleton,
+        })
+    }
+
+    /// The file header.
+    pub fn header(&self) -> &FileHeader {
+        &self.header
+    }
+
+    /// The in-core skeleton.
+    pub fn skeleton(&self) -> &Skeleton {
+        &self.skeleton
+    }
+
+    /// Scene-level facts.
+    pub fn meta(&self) -> SceneMeta {
+        SceneMeta {
+            object_count: self.header.object_count,
+            input_triangles: self.header.input_triangles,
+        }
+    }
+
+    /// The byte source reps are read from.
+    pub fn source(&self) -> &S {
+        &self.source
+    }
+
+    /// Reads rep `rep`'s payload and checks its CRC.
+    pub fn read_rep_bytes(&self, rep: RepId) -> Result<Vec<u8>, FormatError> {
+        let rec = self.record(rep)?;
+        let mut buf = vec![0u8; rec.len as usize];
+        self.source.read_at(rec.offset, &mut buf)?;
+        check_rep_crc(rep, rec, &buf)?;
+        Ok(buf)
+    }
+
+    /// Reads and decodes rep `rep`.
+    pub fn read_rep(&self, rep: RepId) -> Result<RepMesh, FormatError> {
+        let bytes = self.read_rep_bytes(rep)?;
+        RepMesh::decode(&bytes, rep, self.record(rep)?)
+    }
+
+    /// Reads and decodes every rep: a full integrity check of the data section.
+    pub fn verify_all_reps(&self) -> Result<(), FormatError> {
+        for rep in 0..self.skeleton.reps.len() as RepId {
+            self.read_rep(rep)?;
+        }
+        Ok(())
+    }
+
+    fn record(&self, rep: RepId) -> Result<&RepRecord, FormatError> {
+        self.skeleton
+            .reps
+            .get(rep as usize)
+            .ok_or_else(|| FormatError::BadRep {
+                rep,
+                reason: format!("no such rep ({} in the scene)", self.skeleton.reps.len()),
+            })
+    }
+}
+
+/// Checks a payload read by other means (e.g. block by block) against its record.
+pub fn check_rep_crc(rep: RepId, rec: &RepRecord, bytes: &[u8]) -> Result<(), FormatError> {
+    let computed = crc32fast::hash(bytes);
+    if computed != rec.checksum {
+        return Err(FormatError::Checksum {
+            what: format!("rep {rep}"),
+            stored: rec.checksum,
+            computed,
+        });
+    }
+    Ok(())
+}
+
+fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
+    let have = source.len();
+    let hsize = size_of::<FileHeader>() as u64;
+    if have < hsize {
+        return Err(FormatError::Truncated {
+            what: "header",
+            need: hsize,
+            have,
+        });
+    }
+    let mut buf = [0u8; size_of::<FileHeader>()];
+    source.read_at(0, &mut buf)?;
+    let header: FileHeader = bytemuck::pod_read_unaligned(&buf);
+    if header.magic != MAGIC {
+        return Err(FormatError::BadMagic(header.magic));
+    }
+    if header.version != VERSION {
+        return Err(FormatError::UnsupportedVersion {
+            found: header.version,
+        });
+    }
+    let mut zeroed = header;
+    zeroed.header_crc = 0;
+    let computed = crc32fast::hash(bytemuck::bytes_of(&zeroed));
+    if computed != header.header_crc {
+        return Err(FormatError::Checksum {
+            what: "header".into(),
+            stored: header.header_crc,
+            computed,
+        });
+    }
+    let bad = |s: &str| Err(FormatError::BadHeader(s.to_string()));
+    if header.header_size as u64 != hsize {
+        return bad("header size");
+    }
+    if header.file_len > have {
+        return Err(FormatError::Truncated {
+            what: "file",
+            need: header.file_len,
+            have,
+        });
+    }
+    let records = u64::from(header.node_count) * size_of::<NodeRecord>() as u64
+        + u64::from(header.rep_count) * size_of::<RepRecord>() as u64;
+    if header.data_offset != BLOCK
+        || header.data_offset.checked_add(header.data_len) != Some(header.skeleton_offset)
+        || header.skeleton_offset % BLOCK != 0
+        || header.skeleton_len != records
+        || header.skeleton_offset.checked_add(header.skeleton_len) != Some(header.file_len)
+    {
+        return bad("section ranges are inconsistent");
+    }
+    if header.file_len != have {
+        return bad("file is longer than the header says");
+    }
+    Ok(header)
+}

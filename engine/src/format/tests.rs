@@ -1,0 +1,124 @@
+use super::*;
+use crate::io::MemSource;
+use crate::testutil::build;
+use proptest::prelude::*;
+
+#[test]
+fn round_trip_reads_back_skeleton_and_reps() {
+    let (bytes, skeleton) = build(&[1, 2, 3], &[2, 0, 0]);
+    let scene = SceneFile::from_source(MemSource::new(bytes)).unwrap();
+    assert_eq!(scene.skeleton(), &skeleton);
+    assert_eq!(scene.meta().object_count, 2);
+    scene.verify_all_reps().unwrap();
+    let m = scene.read_rep(4).unwrap();
+    assert_eq!(m.tri_count(), 2);
+    assert!(scene.read_rep(99).is_err());
+    for r in &skeleton.reps {
+        assert_eq!(r.offset % BLOCK, 0);
+    }
+}
+
+#[test]
+fn opening_reads_no_rep_data() {
+    // Zero the whole data section: opening must still succeed (it never looks
+    // there), and reading a rep must then fail its checksum.
+    let (mut bytes, skeleton) = build(&[1, 2, 3], &[2, 0, 0]);
+    let end = skeleton.reps.iter().map(|r| r.offset + BLOCK).max().unwrap() as usize;
+    bytes[BLOCK as usize..end].fill(0);
+    let scene = SceneFile::from_source(MemSource::new(bytes)).unwrap();
+    assert!(matches!(scene.read_rep(0), Err(FormatError::Checksum { .. })));
+}
+
+#[test]
+fn every_truncation_is_a_typed_error() {
+    let (bytes, _) = build(&[1, 1, 1], &[2, 0, 0]);
+    for len in (0..bytes.len()).step_by(61).chain([bytes.len() - 1]) {
+        let r = SceneFile::from_source(MemSource::new(bytes[..len].to_vec()));
+        assert!(r.is_err(), "truncated to {len} bytes was accepted");
+    }
+}
+
+#[test]
+fn every_bit_flip_in_header_and_skeleton_is_detected() {
+    let (bytes, _) = build(&[1, 2, 1], &[2, 0, 0]);
+    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..128]);
+    let positions = (0..128usize).chain(h.skeleton_offset as usize..bytes.len());
+    for pos in positions {
+        let mut b = bytes.clone();
+        b[pos] ^= 0x10;
+        assert!(
+            SceneFile::from_source(MemSource::new(b)).is_err(),
+            "flip at byte {pos} accepted"
+        );
+    }
+}
+
+#[test]
+fn bit_flip_in_a_rep_fails_only_that_rep() {
+    let (mut bytes, skeleton) = build(&[1, 2, 1], &[2, 0, 0]);
+    let target = skeleton.reps[2];
+    bytes[target.offset as usize + 100] ^= 1;
+    let scene = SceneFile::from_source(MemSource::new(bytes)).unwrap();
+    assert!(matches!(scene.read_rep(2), Err(FormatError::Checksum { .. })));
+    assert!(scene.read_rep(1).is_ok());
+    assert!(scene.verify_all_reps().is_err());
+}
+
+#[test]
+fn rejects_other_files_and_versions() {
+    let (bytes, _) = build(&[1], &[0]);
+    let mut b = bytes.clone();
+    b[..8].copy_from_slice(b"glTF\x02\0\0\0");
+    assert!(matches!(
+        SceneFile::from_source(MemSource::new(b)),
+        Err(FormatError::BadMagic(_))
+    ));
+    let mut b = bytes.clone();
+    b[8] = 2;
+    assert!(matches!(
+        SceneFile::from_source(MemSource::new(b)),
+        Err(FormatError::UnsupportedVersion { found: 2 })
+    ));
+    let mut b = bytes;
+    b.extend_from_slice(&[0; 16]);
+    assert!(SceneFile::from_source(MemSource::new(b)).is_err());
+}
+
+/// Random tree shapes: breadth-first child counts and rep counts.
+fn shape() -> impl Strategy<Value = (Vec<u32>, Vec<u32>)> {
+    prop::collection::vec((0u32..4, 1u32..4), 1..40).prop_map(|spec| {
+        let mut children = Vec::new();
+        let mut reps = Vec::new();
+        let mut total = 1usize;
+        for (i, (c, r)) in spec.iter().enumerate() {
+            if i >= total {
+                break;
+            }
+            let c = if total + (*c as usize) <= spec.len() { *c } else { 0 };
+            total += c as usize;
+            children.push(c);
+            reps.push(*r);
+        }
+        while children.len() < total {
+            children.push(0);
+            reps.push(1);
+        }
+        (reps, children)
+    })
+}
+
+proptest! {
+    #[test]
+    fn random_scenes_round_trip((reps, children) in shape()) {
+        let (bytes, skeleton) = build(&reps, &children);
+        let scene = SceneFile::from_source(MemSource::new(bytes)).unwrap();
+        prop_assert_eq!(scene.skeleton(), &skeleton);
+        scene.verify_all_reps().unwrap();
+        // PAR and CHD are inverse relations.
+        for id in 0..skeleton.reps.len() as u32 {
+            for c in skeleton.chd(id) {
+                prop_assert_eq!(skeleton.par(c), Some(id));
+            }
+        }
+    }
+}

@@ -1,0 +1,97 @@
+//! Streaming scene writer: reps go to disk as they are made, the skeleton and
+//! the header last.
+
+use std::io::{Seek, SeekFrom, Write};
+use std::mem::size_of;
+
+use super::{BLOCK, FileHeader, FormatError, MAGIC, NodeRecord, RepRecord, VERSION};
+use crate::format::reader::SceneMeta;
+use crate::skeleton::Skeleton;
+
+/// Where a payload landed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RepLocation {
+    pub offset: u64,
+    pub len: u32,
+    pub checksum: u32,
+}
+
+/// Writes one scene file. Call [`SceneWriter::write_rep`] for every payload,
+/// then [`SceneWriter::finish`] with the skeleton that references them.
+#[derive(Debug)]
+pub struct SceneWriter<W: Write + Seek> {
+    out: W,
+    pos: u64,
+}
+
+impl<W: Write + Seek> SceneWriter<W> {
+    /// Starts a file: reserves the header block.
+    pub fn new(mut out: W) -> Result<Self, FormatError> {
+        out.seek(SeekFrom::Start(0))?;
+        out.write_all(&[0u8; BLOCK as usize])?;
+        Ok(Self { out, pos: BLOCK })
+    }
+
+    /// Appends a payload on the next block boundary.
+    pub fn write_rep(&mut self, payload: &[u8]) -> Result<RepLocation, FormatError> {
+        let len = u32::try_from(payload.len())
+            .map_err(|_| FormatError::TooLarge(format!("rep of {} bytes", payload.len())))?;
+        let offset = self.pos;
+        self.out.write_all(payload)?;
+        let padded = (payload.len() as u64).next_multiple_of(BLOCK);
+        let pad = (padded - payload.len() as u64) as usize;
+        self.out.write_all(&[0u8; BLOCK as usize][..pad])?;
+        self.pos += padded;
+        Ok(RepLocation {
+            offset,
+            len,
+            checksum: crc32fast::hash(payload),
+        })
+    }
+
+    /// Validates `skeleton` against the written data, writes it and the header,
+    /// and returns the sink (flushed).
+    pub fn finish(mut self, skeleton: &Skeleton, meta: &SceneMeta) -> Result<W, FormatError> {
+        skeleton.validate(BLOCK, self.pos)?;
+        let too_large = |what: &str| FormatError::TooLarge(what.to_string());
+        let node_count = u32::try_from(skeleton.nodes.len()).map_err(|_| too_large("nodes"))?;
+        let rep_count = u32::try_from(skeleton.reps.len()).map_err(|_| too_large("reps"))?;
+        let node_bytes: &[u8] = bytemuck::cast_slice(&skeleton.nodes);
+        let rep_bytes: &[u8] = bytemuck::cast_slice(&skeleton.reps);
+        let mut crc = crc32fast::Hasher::new();
+        crc.update(node_bytes);
+        crc.update(rep_bytes);
+        self.out.write_all(node_bytes)?;
+        self.out.write_all(rep_bytes)?;
+        let skeleton_len = (node_bytes.len() + rep_bytes.len()) as u64;
+        let root = &skeleton.nodes[0];
+        let mut header = FileHeader {
+            magic: MAGIC,
+            version: VERSION,
+            header_size: size_of::<FileHeader>() as u32,
+            node_count,
+            rep_count,
+            object_count: meta.object_count,
+            flags: 0,
+            input_triangles: meta.input_triangles,
+            data_offset: BLOCK,
+            data_len: self.pos - BLOCK,
+            skeleton_offset: self.pos,
+            skeleton_len,
+            file_len: self.pos + skeleton_len,
+            bounds_min: root.bbox_min,
+            bounds_max: root.bbox_max,
+            skeleton_crc: crc.finalize(),
+            header_crc: 0,
+            reserved: [0; 4],
+        };
+        header.header_crc = crc32fast::hash(bytemuck::bytes_of(&header));
+        self.out.seek(SeekFrom::Start(0))?;
+        self.out.write_all(bytemuck::bytes_of(&header))?;
+        self.out.seek(SeekFrom::End(0))?;
+        self.out.flush()?;
+        Ok(self.out)
+    }
+}
+
+const _: () = assert!(size_of::<NodeRecord>() % 8 == 0 && size_of::<RepRecord>() % 8 == 0);

@@ -1,0 +1,96 @@
+//! Small synthetic scenes for unit tests.
+
+use std::io::Cursor;
+
+use crate::format::{NONE, NodeRecord, RepKind, RepMesh, RepRecord, SceneMeta, SceneWriter};
+use crate::skeleton::Skeleton;
+
+/// A quad (two triangles) spanning `min..max` in x/y at z = min.z.
+pub fn quad(min: [f32; 3], max: [f32; 3]) -> RepMesh {
+    let p = [
+        [min[0], min[1], min[2]],
+        [max[0], min[1], min[2]],
+        [max[0], max[1], min[2]],
+        [min[0], max[1], max[2]],
+    ];
+    RepMesh::quantize(&p, &[[0.0, 0.0, 1.0]; 4], &[[200, 100, 50, 255]; 4], vec![0, 1, 2, 0, 2, 3])
+}
+
+/// Builds a scene from a shape: `rep_counts[i]` reps for node `i`, `children[i]`
+/// the child count of node `i` (breadth-first). Leaf `k` spans `x in [k, k+1]`.
+pub fn build(rep_counts: &[u32], children: &[u32]) -> (Vec<u8>, Skeleton) {
+    assert_eq!(rep_counts.len(), children.len());
+    let n = rep_counts.len();
+    let mut nodes = vec![NodeRecord::default(); n];
+    let mut next = 1u32;
+    for i in 0..n {
+        nodes[i].first_child = if children[i] > 0 { next } else { 0 };
+        nodes[i].child_count = children[i];
+        nodes[i].parent = NONE;
+        nodes[i].object = NONE;
+        next += children[i];
+    }
+    for i in 0..n {
+        for c in nodes[i].first_child..nodes[i].first_child + nodes[i].child_count {
+            nodes[c as usize].parent = i as u32;
+            nodes[c as usize].depth = nodes[i].depth + 1;
+        }
+    }
+    // Boxes bottom-up (children come after parents).
+    let mut leaf = 0f32;
+    for i in 0..n {
+        if nodes[i].child_count == 0 {
+            nodes[i].bbox_min = [leaf, 0.0, 0.0];
+            nodes[i].bbox_max = [leaf + 1.0, 1.0, 1.0];
+            leaf += 1.0;
+        }
+    }
+    for i in (0..n).rev() {
+        if nodes[i].child_count > 0 {
+            let (f, c) = (nodes[i].first_child as usize, nodes[i].child_count as usize);
+            let mut min = [f32::INFINITY; 3];
+            let mut max = [f32::NEG_INFINITY; 3];
+            for ch in &nodes[f..f + c] {
+                for a in 0..3 {
+                    min[a] = min[a].min(ch.bbox_min[a]);
+                    max[a] = max[a].max(ch.bbox_max[a]);
+                }
+            }
+            nodes[i].bbox_min = min;
+            nodes[i].bbox_max = max;
+        }
+    }
+    // Errors halve per rep and per level (at most 4 reps a node): strictly decreasing.
+    let mut writer = SceneWriter::new(Cursor::new(Vec::new())).unwrap();
+    let mut reps = Vec::new();
+    for i in 0..n {
+        nodes[i].first_rep = reps.len() as u32;
+        nodes[i].rep_count = rep_counts[i];
+        for r in 0..rep_counts[i] {
+            let mesh = quad(nodes[i].bbox_min, nodes[i].bbox_max);
+            let loc = writer.write_rep(&mesh.encode(i as u32, r)).unwrap();
+            let kind = if nodes[i].child_count == 0 { RepKind::Lod } else { RepKind::Hlod };
+            reps.push(RepRecord {
+                bbox_min: nodes[i].bbox_min,
+                bbox_max: nodes[i].bbox_max,
+                node: i as u32,
+                index: r as u16,
+                kind: kind as u16,
+                error: 1e6 * 0.5f32.powi((nodes[i].depth * 4 + r) as i32),
+                checksum: loc.checksum,
+                offset: loc.offset,
+                len: loc.len,
+                tri_count: mesh.tri_count() as u32,
+                vertex_count: mesh.vertices.len() as u32,
+                reserved: 0,
+            });
+        }
+    }
+    let skeleton = Skeleton { nodes, reps };
+    let meta = SceneMeta {
+        object_count: leaf as u32,
+        input_triangles: 2 * leaf as u64,
+    };
+    let bytes = writer.finish(&skeleton, &meta).unwrap().into_inner();
+    (bytes, skeleton)
+}
