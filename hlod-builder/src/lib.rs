@@ -1,0 +1,24 @@
+//! `hlod-builder`: turns glTF scenes into the engine's out-of-core scene format.
+//!
+//! # Architecture
+//!
+//! - [`import`]: glTF 2.0 reader with bounds-checked accessors (each mesh
+//!   instance is an *object*; primitives merged with per-vertex base colours).
+//! - [`mesh`]: float meshes and their operations (transform, merge, chunking).
+//! - [`cluster`]: scene-graph topology from a BVH over object boxes (obvhs).
+//! - [`lod`]: static LOD chains and HLODs with meshopt.
+//! - [`build`]: the pipeline writing the scene file through
+//!   [`engine::SceneWriter`], atomically and deterministically.
+//! - [`scenegen`]: scene generators (procedural plant, tiling of real models) and the
+//!   GLB writer they share.
+//! - [`summary`]: the Table-1-style summary printed by `build` and `info`.
+
+pub mod build;
+pub mod cluster;
+pub mod scenegen;
+pub mod import;
+pub mod lod;
+pub mod mesh;
+pub mod summary;
+
+pub use build::{BuildError, BuildParams, BuildStats, build_file};

@@ -1,1 +1,234 @@
-fn main(){}
+//! `hlod-build`: build, inspect and generate out-of-core scenes.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+use hlod_builder::build::{BuildParams, build_file};
+use hlod_builder::lod::LodParams;
+use hlod_builder::scenegen::{plant, tile};
+use hlod_builder::summary::{TABLE_HEADER, human_bytes, stats_of, table_row};
+
+#[derive(Parser, Debug)]
+#[command(name = "hlod-build", version, about = "Build out-of-core HLOD scenes from glTF 2.0")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Build a glTF/GLB scene into a scene file.
+    Build(BuildArgs),
+    /// Print a scene file's summary and validate it.
+    Info {
+        file: PathBuf,
+        /// Skip reading and checking every rep payload (header and skeleton only).
+        #[arg(long)]
+        no_verify_data: bool,
+    },
+    /// Generate a glTF scene.
+    #[command(subcommand)]
+    Gen(GenCmd),
+}
+
+#[derive(Args, Debug)]
+struct BuildArgs {
+    input: PathBuf,
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Children per interior node (at most).
+    #[arg(long, default_value_t = 8)]
+    branching: usize,
+    /// Merge clusters of small objects into one leaf up to this many triangles (0: never).
+    #[arg(long, default_value_t = 1024)]
+    leaf_tris: usize,
+    /// Split objects larger than this many triangles into spatial chunks.
+    #[arg(long, default_value_t = 65536)]
+    chunk_tris: usize,
+    /// Triangle budget of each HLOD.
+    #[arg(long, default_value_t = 8192)]
+    hlod_tris: usize,
+    /// HLOD target as a fraction of the merged children's coarsest reps.
+    #[arg(long, default_value_t = 0.5)]
+    hlod_ratio: f32,
+    /// Triangle ratio between successive LODs.
+    #[arg(long, default_value_t = 0.25)]
+    lod_ratio: f32,
+    /// Most LODs per object, the original included.
+    #[arg(long, default_value_t = 6)]
+    max_lods: usize,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+#[derive(Subcommand, Debug)]
+enum GenCmd {
+    /// A procedural CAD plant (pipes, elbows, tanks, girders, stairs, walkways, equipment).
+    Plant {
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[arg(long, default_value_t = 1200)]
+        objects: usize,
+        #[arg(long, default_value_t = 2_000_000)]
+        triangles: u64,
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Lay a model out on an N x M grid.
+    Tile {
+        input: PathBuf,
+        /// Grid size, e.g. 8x8.
+        #[arg(long)]
+        grid: String,
+        /// Share the meshes between tiles (default).
+        #[arg(long, conflicts_with = "baked")]
+        instanced: bool,
+        /// Copy the geometry into every tile.
+        #[arg(long)]
+        baked: bool,
+        /// Gap between tiles as a fraction of the model's footprint.
+        #[arg(long, default_value_t = 0.1)]
+        gap: f32,
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .without_time()
+        .init();
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.cmd {
+        Cmd::Build(a) => build(a),
+        Cmd::Info { file, no_verify_data } => info(&file, !no_verify_data),
+        Cmd::Gen(GenCmd::Plant {
+            seed,
+            objects,
+            triangles,
+            output,
+        }) => {
+            let p = plant::PlantParams {
+                seed,
+                objects,
+                triangles,
+            };
+            let t = std::time::Instant::now();
+            let s = plant::write_plant(&p, &output)?;
+            println!(
+                "{}: {} objects, {} triangles ({} after instancing), {} meshes, {} in {:.1} s",
+                output.display(),
+                s.objects,
+                s.unique_triangles,
+                s.triangles,
+                s.meshes,
+                human_bytes(s.bytes),
+                t.elapsed().as_secs_f64()
+            );
+            Ok(())
+        }
+        Cmd::Gen(GenCmd::Tile {
+            input,
+            grid,
+            instanced: _,
+            baked,
+            gap,
+            output,
+        }) => {
+            let (n, m) = parse_grid(&grid)?;
+            let s = tile::write_tiled(&input, n, m, baked, gap, &output)?;
+            println!(
+                "{}: {n}x{m} tiles, {} objects, {} triangles after instancing, {}",
+                output.display(),
+                s.objects,
+                s.triangles,
+                human_bytes(s.bytes)
+            );
+            Ok(())
+        }
+    }
+}
+
+fn parse_grid(s: &str) -> Result<(usize, usize)> {
+    let (a, b) = s
+        .split_once(['x', 'X'])
+        .with_context(|| format!("--grid {s:?}: expected NxM, e.g. 8x8"))?;
+    let n: usize = a.trim().parse().with_context(|| format!("--grid {s:?}: bad N"))?;
+    let m: usize = b.trim().parse().with_context(|| format!("--grid {s:?}: bad M"))?;
+    if n == 0 || m == 0 || n * m > 1_000_000 {
+        bail!("--grid {s:?}: N and M must be positive and N*M at most 1,000,000");
+    }
+    Ok((n, m))
+}
+
+fn build(a: BuildArgs) -> Result<()> {
+    let params = BuildParams {
+        lod: LodParams {
+            ratio: a.lod_ratio,
+            max_levels: a.max_lods,
+            ..LodParams::default()
+        },
+        branching: a.branching,
+        leaf_tris: a.leaf_tris,
+        chunk_tris: a.chunk_tris,
+        hlod_tris: a.hlod_tris,
+        hlod_ratio: a.hlod_ratio,
+    };
+    let show = !a.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let stats = build_file(&a.input, &a.output, &params, show)?;
+    for w in stats.warnings.iter().take(20) {
+        tracing::warn!("{}: {w}", a.input.display());
+    }
+    if stats.warnings.len() > 20 {
+        tracing::warn!("... {} more warnings", stats.warnings.len() - 20);
+    }
+    let name = a.input.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
+    println!(
+        "wrote {} ({} objects split into chunks)",
+        a.output.display(),
+        stats.chunked_objects
+    );
+    Ok(())
+}
+
+fn info(file: &std::path::Path, verify: bool) -> Result<()> {
+    let scene = engine::SceneFile::open(file).with_context(|| format!("{}", file.display()))?;
+    let stats = stats_of(&scene);
+    let name = file.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
+    let s = scene.skeleton();
+    let lods = s.reps.iter().filter(|r| r.kind == engine::RepKind::Lod as u16).count();
+    let root = s.root().expect("validated scenes have a root");
+    println!(
+        "format v{}, {} LODs + {} HLODs, bounds {:?} .. {:?}, root error {:.4}",
+        scene.header().version,
+        lods,
+        s.reps.len() - lods,
+        root.bbox_min,
+        root.bbox_max,
+        s.reps.get(root.first_rep as usize).map_or(f32::NAN, |r| r.error)
+    );
+    println!("validate(): ok (structure, error monotonicity, boxes, byte ranges, checksums of header and skeleton)");
+    if verify {
+        scene
+            .verify_all_reps()
+            .with_context(|| format!("{}: rep data", file.display()))?;
+        println!("data: all {} reps read back and match their checksums", s.reps.len());
+    }
+    Ok(())
+}

@@ -1,0 +1,470 @@
+//! The build pipeline: glTF scene → scene graph with LODs and HLODs → scene file.
+//!
+//! 1. import objects (mesh instances); split very large ones into chunks;
+//! 2. cluster objects/chunks into the scene graph ([`crate::cluster`]);
+//! 3. leaves: LOD chains (per shared mesh once, in its local space, when a leaf
+//!    is one instance), written to disk as they are made;
+//! 4. interior nodes, deepest first: HLODs from the children's coarsest reps;
+//! 5. the skeleton and header, then an atomic rename into place.
+//!
+//! Rep errors are the simplification error plus the quantisation error, made
+//! strictly monotone along PAR/CHD. Output is byte-identical for the same input
+//! and parameters (ordered parallel maps, no hash-ordered iteration).
+
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use engine::format::{NONE, NodeRecord, RepKind, RepMesh, RepRecord, SceneMeta, SceneWriter};
+use engine::{FormatError, Skeleton};
+use glam::{Mat3, Mat4};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+
+use crate::cluster::{ClusterItem, cluster};
+use crate::import::{self, ImportError, Imported};
+use crate::lod::{LodParams, hlod, lod_chain, strictly_above};
+use crate::mesh::{Aabb, Mesh};
+
+/// Parameters of a build.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildParams {
+    pub lod: LodParams,
+    /// Children per interior node (at most).
+    pub branching: usize,
+    /// BVH subtrees with at most this many triangles become one merged leaf.
+    pub leaf_tris: usize,
+    /// Objects above this many triangles are split into chunks of at most this size.
+    pub chunk_tris: usize,
+    /// Triangle budget of an HLOD.
+    pub hlod_tris: usize,
+    /// HLOD target as a fraction of the merged children's coarsest reps.
+    pub hlod_ratio: f32,
+}
+
+impl Default for BuildParams {
+    fn default() -> Self {
+        Self {
+            lod: LodParams::default(),
+            branching: 8,
+            leaf_tris: 1024,
+            chunk_tris: 65536,
+            hlod_tris: 8192,
+            hlod_ratio: 0.5,
+        }
+    }
+}
+
+impl BuildParams {
+    /// Rejects nonsense values.
+    pub fn check(&self) -> Result<(), BuildError> {
+        let bad = |s: &str| Err(BuildError::Params(s.to_string()));
+        let l = &self.lod;
+        if !(l.ratio > 0.0 && l.ratio < 1.0) {
+            return bad("--lod-ratio must be in (0, 1)");
+        }
+        if !(l.max_keep > 0.0 && l.max_keep <= 1.0) {
+            return bad("LOD max_keep must be in (0, 1]");
+        }
+        if l.max_levels == 0 || l.max_levels > 32 {
+            return bad("--max-lods must be in 1..=32");
+        }
+        if self.branching < 2 || self.branching > 1024 {
+            return bad("--branching must be in 2..=1024");
+        }
+        if self.chunk_tris < 64 {
+            return bad("--chunk-tris must be at least 64");
+        }
+        if self.hlod_tris < 4 || l.min_tris < 1 {
+            return bad("--hlod-tris must be at least 4");
+        }
+        if !(self.hlod_ratio > 0.0 && self.hlod_ratio <= 1.0) {
+            return bad("--hlod-ratio must be in (0, 1]");
+        }
+        Ok(())
+    }
+}
+
+/// Why a build failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error(transparent)]
+    Import(#[from] ImportError),
+    #[error("invalid parameters: {0}")]
+    Params(String),
+    #[error("{path}: {source}")]
+    Write { path: PathBuf, source: FormatError },
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+}
+
+/// Table-1 figures of a finished build.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BuildStats {
+    pub objects: u64,
+    pub nodes: u64,
+    pub leaves: u64,
+    pub chunked_objects: u64,
+    pub height: u32,
+    pub reps: u64,
+    pub input_triangles: u64,
+    pub output_triangles: u64,
+    pub skeleton_bytes: u64,
+    pub data_bytes: u64,
+    pub file_bytes: u64,
+    pub seconds: f64,
+    pub warnings: Vec<String>,
+}
+
+/// A leaf item: one instance, or one chunk of a large object.
+enum Item {
+    Instance { mesh: usize, transform: Mat4, object: u32 },
+    Chunk { mesh: Mesh, object: u32 },
+}
+
+/// A finished node's coarsest rep, kept for its parent's HLOD.
+struct Coarse {
+    mesh: Mesh,
+    error: f32,
+}
+
+/// Builds `input` into the scene file `output` (written atomically).
+pub fn build_file(input: &Path, output: &Path, params: &BuildParams, progress: bool) -> Result<BuildStats, BuildError> {
+    params.check()?;
+    let t0 = Instant::now();
+    let imported = import::load(input)?;
+    let dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let io_err = |source| BuildError::Io {
+        path: output.to_path_buf(),
+        source,
+    };
+    let tmp = tempfile::Builder::new()
+        .prefix(".hlod-build-")
+        .suffix(".tmp")
+        .tempfile_in(dir)
+        .map_err(io_err)?;
+    let sink = BufWriter::with_capacity(1 << 20, tmp.reopen().map_err(io_err)?);
+    let mut stats = build_scene(&imported, sink, params, progress).map_err(|source| BuildError::Write {
+        path: output.to_path_buf(),
+        source,
+    })?;
+    tmp.as_file().sync_all().map_err(io_err)?;
+    tmp.persist(output).map_err(|e| io_err(e.error))?;
+    stats.file_bytes = std::fs::metadata(output).map_err(io_err)?.len();
+    stats.seconds = t0.elapsed().as_secs_f64();
+    Ok(stats)
+}
+
+/// Builds an imported scene into `sink`.
+pub fn build_scene<W: Write + std::io::Seek>(
+    imported: &Imported,
+    sink: W,
+    params: &BuildParams,
+    progress: bool,
+) -> Result<BuildStats, FormatError> {
+    let mut stats = BuildStats {
+        objects: imported.instances.len() as u64,
+        input_triangles: imported.instanced_triangles(),
+        warnings: imported.warnings.clone(),
+        ..Default::default()
+    };
+    // 1. Items.
+    let mut items = Vec::new();
+    let mut cluster_items = Vec::new();
+    for (obj, inst) in imported.instances.iter().enumerate() {
+        let mesh = imported.meshes[inst.mesh].as_ref().expect("instances refer to usable meshes");
+        if mesh.tri_count() > params.chunk_tris {
+            stats.chunked_objects += 1;
+            for chunk in mesh.transformed(&inst.transform).split_spatial(params.chunk_tris) {
+                cluster_items.push(ClusterItem {
+                    bounds: chunk.bounds(),
+                    tris: chunk.tri_count(),
+                });
+                items.push(Item::Chunk {
+                    mesh: chunk,
+                    object: obj as u32,
+                });
+            }
+        } else {
+            cluster_items.push(ClusterItem {
+                bounds: transformed_bounds(mesh.bounds(), &inst.transform),
+                tris: mesh.tri_count(),
+            });
+            items.push(Item::Instance {
+                mesh: inst.mesh,
+                transform: inst.transform,
+                object: obj as u32,
+            });
+        }
+    }
+    // 2. Topology.
+    let tree = cluster(&cluster_items, params.branching, params.leaf_tris);
+    let bar = if progress {
+        ProgressBar::new(tree.len() as u64).with_style(
+            ProgressStyle::with_template("{spinner} {msg:12} [{bar:40}] {pos}/{len} nodes  {elapsed}")
+                .expect("static template")
+                .progress_chars("=> "),
+        )
+    } else {
+        ProgressBar::hidden()
+    };
+    // 3. Shared-mesh chains in local space, for leaves that are one instance.
+    bar.set_message("mesh LODs");
+    let mut shared: Vec<usize> = tree
+        .iter()
+        .filter(|n| n.items.len() == 1)
+        .filter_map(|n| match &items[n.items[0] as usize] {
+            Item::Instance { mesh, .. } => Some(*mesh),
+            Item::Chunk { .. } => None,
+        })
+        .collect();
+    shared.sort_unstable();
+    shared.dedup();
+    let chains: Vec<(usize, Vec<crate::lod::Level>)> = shared
+        .par_iter()
+        .map(|&m| (m, lod_chain(imported.meshes[m].as_ref().expect("usable"), &params.lod)))
+        .collect();
+    let chain_of = |m: usize| &chains[chains.binary_search_by_key(&m, |(k, _)| *k).expect("computed")].1;
+
+    let mut writer = SceneWriter::new(sink)?;
+    let mut nodes = vec![NodeRecord::default(); tree.len()];
+    let mut node_reps: Vec<Vec<RepRecord>> = vec![Vec::new(); tree.len()];
+    let mut coarse: Vec<Option<Coarse>> = (0..tree.len()).map(|_| None).collect();
+    for (i, t) in tree.iter().enumerate() {
+        let n = &mut nodes[i];
+        n.parent = t.parent.unwrap_or(NONE);
+        n.depth = t.depth;
+        n.first_child = t.children.first().copied().unwrap_or(0);
+        n.child_count = t.children.len() as u32;
+        n.object = NONE;
+    }
+    // 4. Leaves, in batches, written in breadth-first order.
+    bar.set_message("leaf LODs");
+    let leaves: Vec<usize> = (0..tree.len()).filter(|&i| !tree[i].items.is_empty()).collect();
+    stats.leaves = leaves.len() as u64;
+    for batch in leaves.chunks(64) {
+        let made: Vec<Vec<crate::lod::Level>> = batch
+            .par_iter()
+            .map(|&i| leaf_levels(&tree[i].items, &items, imported, params, &chain_of))
+            .collect();
+        for (&i, levels) in batch.iter().zip(made) {
+            let objects: Vec<u32> = tree[i].items.iter().map(|&k| item_object(&items[k as usize])).collect();
+            let n = &mut nodes[i];
+            n.object_count = objects.len() as u32;
+            if objects.len() == 1 {
+                n.object = objects[0];
+                if matches!(items[tree[i].items[0] as usize], Item::Chunk { .. }) {
+                    n.flags |= NodeRecord::FLAG_CHUNK;
+                }
+            } else {
+                n.flags |= NodeRecord::FLAG_MERGED;
+            }
+            let (recs, c) = write_chain(&mut writer, i as u32, levels, RepKind::Lod, 0.0)?;
+            finish_node(&mut nodes[i], &recs, &c.mesh, &[]);
+            node_reps[i] = recs;
+            coarse[i] = Some(c);
+            bar.inc(1);
+        }
+    }
+    // 5. Interior nodes, deepest level first.
+    bar.set_message("HLODs");
+    let max_depth = tree.iter().map(|t| t.depth).max().unwrap_or(0);
+    for depth in (0..=max_depth).rev() {
+        let level: Vec<usize> = (0..tree.len())
+            .filter(|&i| tree[i].depth == depth && !tree[i].children.is_empty())
+            .collect();
+        for batch in level.chunks(32) {
+            let inputs: Vec<(Mesh, f32)> = batch
+                .iter()
+                .map(|&i| {
+                    let kids: Vec<&Coarse> = tree[i]
+                        .children
+                        .iter()
+                        .map(|&c| coarse[c as usize].as_ref().expect("children done first"))
+                        .collect();
+                    let merged = Mesh::merge(kids.iter().map(|k| &k.mesh));
+                    let floor = kids.iter().map(|k| k.error).fold(0.0, f32::max);
+                    (merged, floor)
+                })
+                .collect();
+            let made: Vec<(Mesh, f32, f32)> = inputs
+                .into_par_iter()
+                .map(|(merged, floor)| {
+                    let budget = ((merged.tri_count() as f32 * params.hlod_ratio) as usize)
+                        .clamp(params.lod.min_tris.min(merged.tri_count()), params.hlod_tris);
+                    let (m, e) = hlod(&merged, budget);
+                    (m, floor, e)
+                })
+                .collect();
+            for (&i, (mesh, floor, e)) in batch.iter().zip(made) {
+                let level = crate::lod::Level { mesh, error: floor + e };
+                let (recs, c) = write_chain(&mut writer, i as u32, vec![level], RepKind::Hlod, floor)?;
+                let child_boxes: Vec<([f32; 3], [f32; 3])> = tree[i]
+                    .children
+                    .iter()
+                    .map(|&ch| (nodes[ch as usize].bbox_min, nodes[ch as usize].bbox_max))
+                    .collect();
+                nodes[i].object_count = tree[i].children.iter().map(|&ch| nodes[ch as usize].object_count).sum();
+                finish_node(&mut nodes[i], &recs, &c.mesh, &child_boxes);
+                node_reps[i] = recs;
+                coarse[i] = Some(c);
+                for &ch in &tree[i].children {
+                    coarse[ch as usize] = None;
+                }
+                bar.inc(1);
+            }
+        }
+    }
+    bar.finish_and_clear();
+    // 6. Skeleton.
+    let mut reps = Vec::new();
+    for (i, recs) in node_reps.into_iter().enumerate() {
+        nodes[i].first_rep = reps.len() as u32;
+        nodes[i].rep_count = recs.len() as u32;
+        reps.extend(recs);
+    }
+    let skeleton = Skeleton { nodes, reps };
+    let meta = SceneMeta {
+        object_count: stats.objects as u32,
+        input_triangles: stats.input_triangles,
+    };
+    let mut sink = writer.finish(&skeleton, &meta)?;
+    sink.flush()?;
+    stats.nodes = skeleton.nodes.len() as u64;
+    stats.height = skeleton.height();
+    stats.reps = skeleton.reps.len() as u64;
+    stats.output_triangles = skeleton.total_triangles();
+    stats.skeleton_bytes = (std::mem::size_of_val(skeleton.nodes.as_slice()) + std::mem::size_of_val(skeleton.reps.as_slice())) as u64;
+    stats.data_bytes = skeleton.reps.iter().map(|r| u64::from(r.len)).sum();
+    Ok(stats)
+}
+
+fn item_object(item: &Item) -> u32 {
+    match item {
+        Item::Instance { object, .. } | Item::Chunk { object, .. } => *object,
+    }
+}
+
+/// The LOD chain of a leaf, in world space, coarsest first.
+fn leaf_levels<'a>(
+    leaf_items: &[u32],
+    items: &[Item],
+    imported: &Imported,
+    params: &BuildParams,
+    chain_of: &(dyn Fn(usize) -> &'a Vec<crate::lod::Level> + Sync),
+) -> Vec<crate::lod::Level> {
+    if let [k] = leaf_items {
+        match &items[*k as usize] {
+            Item::Instance { mesh, transform, .. } => {
+                let scale = max_scale(transform);
+                return chain_of(*mesh)
+                    .iter()
+                    .map(|l| crate::lod::Level {
+                        mesh: l.mesh.transformed(transform),
+                        error: l.error * scale,
+                    })
+                    .collect();
+            }
+            Item::Chunk { mesh, .. } => {
+                let lod = LodParams {
+                    lock_border: true,
+                    ..params.lod
+                };
+                return lod_chain(mesh, &lod);
+            }
+        }
+    }
+    let parts: Vec<Mesh> = leaf_items
+        .iter()
+        .map(|&k| match &items[k as usize] {
+            Item::Instance { mesh, transform, .. } => {
+                imported.meshes[*mesh].as_ref().expect("usable").transformed(transform)
+            }
+            Item::Chunk { mesh, .. } => mesh.clone(),
+        })
+        .collect();
+    lod_chain(&Mesh::merge(&parts), &params.lod)
+}
+
+/// Writes a node's levels (coarsest first); `floor` is an error every rep must
+/// exceed (the children's for an HLOD). Returns the records and the coarsest level.
+fn write_chain<W: Write + std::io::Seek>(
+    writer: &mut SceneWriter<W>,
+    node: u32,
+    levels: Vec<crate::lod::Level>,
+    kind: RepKind,
+    floor: f32,
+) -> Result<(Vec<RepRecord>, Coarse), FormatError> {
+    let n = levels.len();
+    let mut recs = vec![RepRecord::default(); n];
+    let mut below = if kind == RepKind::Hlod { Some(floor) } else { None };
+    // Finest first, so each coarser error is made strictly larger.
+    for (i, level) in levels.iter().enumerate().rev() {
+        let m = &level.mesh;
+        let packed = RepMesh::quantize(&m.positions, &m.normals, &m.colors, m.indices.clone());
+        let raw = level.error + packed.quantization_error();
+        let error = match below {
+            Some(b) => strictly_above(b, raw),
+            None => raw,
+        };
+        below = Some(error);
+        let loc = writer.write_rep(&packed.encode(node, i as u32))?;
+        let (bbox_min, bbox_max) = m.bounds().to_arrays();
+        recs[i] = RepRecord {
+            bbox_min,
+            bbox_max,
+            node,
+            index: i as u16,
+            kind: kind as u16,
+            error,
+            checksum: loc.checksum,
+            offset: loc.offset,
+            len: loc.len,
+            tri_count: m.tri_count() as u32,
+            vertex_count: m.vertex_count() as u32,
+            reserved: 0,
+        };
+    }
+    let first = levels.into_iter().next().expect("at least one level");
+    Ok((recs.clone(), Coarse {
+        mesh: first.mesh,
+        error: recs[0].error,
+    }))
+}
+
+/// Box and colour of a node from its reps and children.
+fn finish_node(n: &mut NodeRecord, reps: &[RepRecord], color_mesh: &Mesh, child_boxes: &[([f32; 3], [f32; 3])]) {
+    let mut b = Aabb::EMPTY;
+    for r in reps {
+        b.add(r.bbox_min.into());
+        b.add(r.bbox_max.into());
+    }
+    for (mn, mx) in child_boxes {
+        b.add((*mn).into());
+        b.add((*mx).into());
+    }
+    (n.bbox_min, n.bbox_max) = b.to_arrays();
+    n.color = u32::from_le_bytes(color_mesh.dominant_color());
+}
+
+fn transformed_bounds(b: Aabb, m: &Mat4) -> Aabb {
+    let mut out = Aabb::EMPTY;
+    for k in 0..8 {
+        let p = glam::Vec3::new(
+            if k & 1 == 0 { b.min.x } else { b.max.x },
+            if k & 2 == 0 { b.min.y } else { b.max.y },
+            if k & 4 == 0 { b.min.z } else { b.max.z },
+        );
+        out.add(m.transform_point3(p));
+    }
+    out
+}
+
+/// Largest stretch of the transform's linear part (scales object-space errors).
+fn max_scale(m: &Mat4) -> f32 {
+    let l = Mat3::from_mat4(*m);
+    l.x_axis.length().max(l.y_axis.length()).max(l.z_axis.length())
+}

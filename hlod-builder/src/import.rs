@@ -1,0 +1,366 @@
+//! glTF 2.0 import (`.gltf` + external or embedded buffers, `.glb`).
+//!
+//! Buffers are loaded here (the `gltf` crate's `import` feature is not used, it
+//! pulls in image decoders), and every accessor is read with explicit bounds
+//! checks so that a corrupt file gives an error naming the accessor instead of a
+//! panic. Structural corruption (bad JSON, buffers or accessors out of range) is
+//! an error; a bad part (non-triangle primitive, NaN positions, out-of-range
+//! indices, empty mesh) is skipped with a warning.
+
+use std::path::{Path, PathBuf};
+
+use base64::Engine as _;
+use glam::Mat4;
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+
+use crate::mesh::Mesh;
+
+/// Why a glTF file could not be imported.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    #[error("{path}: cannot read: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: not a valid glTF 2.0 file: {source}")]
+    Parse { path: PathBuf, source: gltf::Error },
+    #[error("{path}: {what}")]
+    Invalid { path: PathBuf, what: String },
+    #[error("{path}: the scene has no renderable triangles")]
+    NoTriangles { path: PathBuf },
+}
+
+/// One placement of a mesh: an *object*.
+#[derive(Clone, Debug)]
+pub struct Instance {
+    pub mesh: usize,
+    /// Local-to-world transform.
+    pub transform: Mat4,
+    pub name: String,
+}
+
+/// The imported scene: meshes in their local space and their placements.
+#[derive(Debug, Default)]
+pub struct Imported {
+    /// One entry per glTF mesh; `None` when it has no usable triangles.
+    pub meshes: Vec<Option<Mesh>>,
+    pub instances: Vec<Instance>,
+    /// Parts skipped, with the reason.
+    pub warnings: Vec<String>,
+}
+
+impl Imported {
+    /// Triangles after instancing.
+    pub fn instanced_triangles(&self) -> u64 {
+        self.instances
+            .iter()
+            .filter_map(|i| self.meshes[i.mesh].as_ref())
+            .map(|m| m.tri_count() as u64)
+            .sum()
+    }
+}
+
+const MAX_NODE_DEPTH: usize = 256;
+
+/// Loads `path`.
+pub fn load(path: &Path) -> Result<Imported, ImportError> {
+    let bytes = std::fs::read(path).map_err(|source| ImportError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    load_slice(&bytes, path.parent().unwrap_or(Path::new(".")), path)
+}
+
+/// Loads glTF or GLB bytes; external buffers are resolved against `base_dir`,
+/// errors name `path`.
+pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported, ImportError> {
+    let invalid = |what: String| ImportError::Invalid {
+        path: path.to_path_buf(),
+        what,
+    };
+    let gltf = gltf::Gltf::from_slice(bytes).map_err(|source| ImportError::Parse {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let buffers = load_buffers(&gltf, base_dir, path)?;
+    let doc = &gltf.document;
+    let mut out = Imported::default();
+    for mesh in doc.meshes() {
+        let m = read_mesh(&mesh, &buffers, &mut out.warnings).map_err(&invalid)?;
+        out.meshes.push(m);
+    }
+    // Walk the default scene (or the first, or every root node).
+    let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+        Some(scene) => scene.nodes().collect(),
+        None => {
+            let mut is_child = vec![false; doc.nodes().len()];
+            for n in doc.nodes() {
+                for c in n.children() {
+                    is_child[c.index()] = true;
+                }
+            }
+            doc.nodes().filter(|n| !is_child[n.index()]).collect()
+        }
+    };
+    let mut stack: Vec<(gltf::Node, Mat4, usize)> =
+        roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    while let Some((node, parent, depth)) = stack.pop() {
+        if depth > MAX_NODE_DEPTH {
+            return Err(invalid(format!(
+                "node hierarchy deeper than {MAX_NODE_DEPTH} (cyclic?) at node {}",
+                node.index()
+            )));
+        }
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * local;
+        if let Some(mesh) = node.mesh() {
+            let name = node
+                .name()
+                .map_or_else(|| format!("node{}", node.index()), str::to_string);
+            if !world.is_finite() {
+                out.warnings
+                    .push(format!("node {}: non-finite transform, skipped", node.index()));
+            } else if out.meshes[mesh.index()].is_some() {
+                out.instances.push(Instance {
+                    mesh: mesh.index(),
+                    transform: world,
+                    name,
+                });
+            }
+        }
+        let children: Vec<_> = node.children().collect();
+        for c in children.into_iter().rev() {
+            stack.push((c, world, depth + 1));
+        }
+    }
+    if out.instances.is_empty() {
+        return Err(ImportError::NoTriangles {
+            path: path.to_path_buf(),
+        });
+    }
+    Ok(out)
+}
+
+fn load_buffers(gltf: &gltf::Gltf, base_dir: &Path, path: &Path) -> Result<Vec<Vec<u8>>, ImportError> {
+    let invalid = |what: String| ImportError::Invalid {
+        path: path.to_path_buf(),
+        what,
+    };
+    let mut out = Vec::new();
+    for buf in gltf.document.buffers() {
+        let data = match buf.source() {
+            gltf::buffer::Source::Bin => gltf
+                .blob
+                .clone()
+                .ok_or_else(|| invalid(format!("buffer {} refers to a missing GLB BIN chunk", buf.index())))?,
+            gltf::buffer::Source::Uri(uri) => {
+                if let Some(rest) = uri.strip_prefix("data:") {
+                    let b64 = rest
+                        .split_once(";base64,")
+                        .map(|(_, d)| d)
+                        .ok_or_else(|| invalid(format!("buffer {}: unsupported data URI", buf.index())))?;
+                    base64::engine::general_purpose::STANDARD
+                        .decode(b64)
+                        .map_err(|e| invalid(format!("buffer {}: bad base64: {e}", buf.index())))?
+                } else {
+                    let file = base_dir.join(percent_decode(uri));
+                    std::fs::read(&file).map_err(|e| {
+                        invalid(format!("buffer {}: cannot read {}: {e}", buf.index(), file.display()))
+                    })?
+                }
+            }
+        };
+        if data.len() < buf.length() {
+            return Err(invalid(format!(
+                "buffer {} has {} bytes, declares {} (truncated file?)",
+                buf.index(),
+                data.len(),
+                buf.length()
+            )));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' && i + 2 < b.len() {
+            let hex = std::str::from_utf8(&b[i + 1..i + 3]).ok();
+            if let Some(v) = hex.and_then(|h| u8::from_str_radix(h, 16).ok()) {
+                out.push(v);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// All primitives of a mesh merged, each vertex coloured by its material's
+/// base colour.
+fn read_mesh(
+    mesh: &gltf::Mesh,
+    buffers: &[Vec<u8>],
+    warnings: &mut Vec<String>,
+) -> Result<Option<Mesh>, String> {
+    let mut out = Mesh::default();
+    for prim in mesh.primitives() {
+        let what = format!("mesh {} primitive {}", mesh.index(), prim.index());
+        let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
+            warnings.push(format!("{what}: no POSITION, skipped"));
+            continue;
+        };
+        if !matches!(prim.mode(), Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+            warnings.push(format!("{what}: mode {:?} is not triangles, skipped", prim.mode()));
+            continue;
+        }
+        let positions = read_vec3(&pos_acc, buffers).map_err(|e| format!("{what} POSITION: {e}"))?;
+        if positions.iter().flatten().any(|c| !c.is_finite()) {
+            warnings.push(format!("{what}: non-finite positions, skipped"));
+            continue;
+        }
+        let normals = match prim.get(&gltf::Semantic::Normals) {
+            Some(acc) => {
+                let n = read_vec3(&acc, buffers).map_err(|e| format!("{what} NORMAL: {e}"))?;
+                (n.len() == positions.len() && n.iter().flatten().all(|c| c.is_finite())).then_some(n)
+            }
+            None => None,
+        };
+        let raw = match prim.indices() {
+            Some(acc) => read_indices(&acc, buffers).map_err(|e| format!("{what} indices: {e}"))?,
+            None => (0..positions.len() as u32).collect(),
+        };
+        if let Some(&bad) = raw.iter().find(|&&i| i as usize >= positions.len()) {
+            warnings.push(format!(
+                "{what}: index {bad} out of range of {} vertices, skipped",
+                positions.len()
+            ));
+            continue;
+        }
+        let indices = triangulate(prim.mode(), &raw);
+        let c = prim.material().pbr_metallic_roughness().base_color_factor();
+        let color = c.map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8);
+        let mut part = Mesh {
+            colors: vec![color; positions.len()],
+            normals: normals.clone().unwrap_or_default(),
+            positions,
+            indices,
+        };
+        if normals.is_none() {
+            part.compute_normals();
+        }
+        let dropped = part.remove_degenerate();
+        if dropped > 0 {
+            warnings.push(format!("{what}: {dropped} degenerate triangles dropped"));
+        }
+        out.append(&part);
+    }
+    if out.tri_count() == 0 {
+        warnings.push(format!("mesh {}: no usable triangles, its instances skipped", mesh.index()));
+        return Ok(None);
+    }
+    Ok(Some(out))
+}
+
+fn triangulate(mode: Mode, idx: &[u32]) -> Vec<u32> {
+    match mode {
+        Mode::TriangleStrip => (2..idx.len())
+            .flat_map(|i| {
+                if i % 2 == 0 {
+                    [idx[i - 2], idx[i - 1], idx[i]]
+                } else {
+                    [idx[i - 1], idx[i - 2], idx[i]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (2..idx.len())
+            .flat_map(|i| [idx[0], idx[i - 1], idx[i]])
+            .collect(),
+        _ => idx[..idx.len() - idx.len() % 3].to_vec(),
+    }
+}
+
+/// The bytes of each element of `acc`, bounds-checked against its view and buffer.
+fn elements<'a>(
+    acc: &gltf::Accessor,
+    buffers: &'a [Vec<u8>],
+) -> Result<impl Iterator<Item = &'a [u8]> + 'a, String> {
+    if acc.sparse().is_some() {
+        return Err(format!("accessor {}: sparse accessors are not supported", acc.index()));
+    }
+    let view = acc
+        .view()
+        .ok_or_else(|| format!("accessor {} has no buffer view", acc.index()))?;
+    let buffer = &buffers[view.buffer().index()];
+    let elem = acc.size();
+    let stride = view.stride().unwrap_or(elem);
+    let count = acc.count();
+    let view_end = view.offset().checked_add(view.length());
+    if view_end.is_none_or(|e| e > buffer.len()) {
+        return Err(format!(
+            "buffer view {} ({}+{}) out of range of buffer {} ({} bytes)",
+            view.index(),
+            view.offset(),
+            view.length(),
+            view.buffer().index(),
+            buffer.len()
+        ));
+    }
+    let need = if count == 0 {
+        Some(0)
+    } else {
+        stride
+            .checked_mul(count - 1)
+            .and_then(|x| x.checked_add(elem))
+            .and_then(|x| x.checked_add(acc.offset()))
+    };
+    if stride < elem || need.is_none_or(|n| n > view.length()) {
+        return Err(format!(
+            "accessor {} ({count} x {elem} bytes, stride {stride}, offset {}) out of range of buffer view {} ({} bytes)",
+            acc.index(),
+            acc.offset(),
+            view.index(),
+            view.length()
+        ));
+    }
+    let start = view.offset() + acc.offset();
+    Ok((0..count).map(move |i| &buffer[start + i * stride..start + i * stride + elem]))
+}
+
+fn read_vec3(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<[f32; 3]>, String> {
+    if acc.data_type() != DataType::F32 || acc.dimensions() != Dimensions::Vec3 {
+        return Err(format!(
+            "accessor {} is {:?} {:?}, expected float VEC3",
+            acc.index(),
+            acc.data_type(),
+            acc.dimensions()
+        ));
+    }
+    Ok(elements(acc, buffers)?
+        .map(|e| {
+            let f = |k: usize| f32::from_le_bytes([e[4 * k], e[4 * k + 1], e[4 * k + 2], e[4 * k + 3]]);
+            [f(0), f(1), f(2)]
+        })
+        .collect())
+}
+
+fn read_indices(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, String> {
+    if acc.dimensions() != Dimensions::Scalar {
+        return Err(format!("accessor {} is not SCALAR", acc.index()));
+    }
+    let it = elements(acc, buffers)?;
+    Ok(match acc.data_type() {
+        DataType::U8 => it.map(|e| u32::from(e[0])).collect(),
+        DataType::U16 => it.map(|e| u32::from(u16::from_le_bytes([e[0], e[1]]))).collect(),
+        DataType::U32 => it.map(|e| u32::from_le_bytes([e[0], e[1], e[2], e[3]])).collect(),
+        t => return Err(format!("accessor {}: index type {t:?} is not unsigned", acc.index())),
+    })
+}

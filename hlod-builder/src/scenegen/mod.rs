@@ -1,0 +1,7 @@
+//! Scene generators: a procedural CAD plant and tiled real models, written as
+//! GLB so that any glTF tool opens them.
+
+pub mod glb;
+pub mod plant;
+pub mod shapes;
+pub mod tile;

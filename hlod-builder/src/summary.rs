@@ -1,0 +1,69 @@
+//! The Table-1-style summary (Varadhan & Manocha, Table 1) of a built scene.
+
+use std::fmt::Write as _;
+
+use engine::{ByteSource, SceneFile};
+
+use crate::build::BuildStats;
+
+/// Summary figures derived from a scene file's skeleton.
+pub fn stats_of<S: ByteSource>(scene: &SceneFile<S>) -> BuildStats {
+    let s = scene.skeleton();
+    let h = scene.header();
+    BuildStats {
+        objects: u64::from(h.object_count),
+        nodes: s.nodes.len() as u64,
+        leaves: s.nodes.iter().filter(|n| n.is_leaf()).count() as u64,
+        chunked_objects: 0,
+        height: s.height(),
+        reps: s.reps.len() as u64,
+        input_triangles: h.input_triangles,
+        output_triangles: s.total_triangles(),
+        skeleton_bytes: h.skeleton_len,
+        data_bytes: s.reps.iter().map(|r| u64::from(r.len)).sum(),
+        file_bytes: h.file_len,
+        seconds: f64::NAN,
+        warnings: Vec::new(),
+    }
+}
+
+/// Markdown header of the summary table.
+pub const TABLE_HEADER: &str = "| scene | input tris | objects | nodes | leaves | height | reps | output tris | skeleton | data | file | skeleton/data | time |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|";
+
+/// One Markdown row of the summary table.
+pub fn table_row(name: &str, s: &BuildStats) -> String {
+    let mut row = String::new();
+    let time = if s.seconds.is_finite() {
+        format!("{:.1} s", s.seconds)
+    } else {
+        "-".into()
+    };
+    let _ = write!(
+        row,
+        "| {name} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3}% | {time} |",
+        s.input_triangles,
+        s.objects,
+        s.nodes,
+        s.leaves,
+        s.height,
+        s.reps,
+        s.output_triangles,
+        human_bytes(s.skeleton_bytes),
+        human_bytes(s.data_bytes),
+        human_bytes(s.file_bytes),
+        100.0 * s.skeleton_bytes as f64 / s.data_bytes.max(1) as f64,
+    );
+    row
+}
+
+/// `1.23 MiB`-style sizes.
+pub fn human_bytes(b: u64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut v = b as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u < UNITS.len() - 1 {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 { format!("{b} B") } else { format!("{v:.2} {}", UNITS[u]) }
+}
