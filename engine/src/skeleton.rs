@@ -11,7 +11,7 @@
 //! A node without reps (allowed for interior nodes only) is transparent: PAR and
 //! CHD pass through it.
 
-use crate::format::{BLOCK, NONE, NodeRecord, RepKind, RepRecord, RepMesh};
+use crate::format::{BLOCK, NONE, NodeRecord, RepKind, RepMesh, RepRecord};
 
 /// Global index of an object-rep in the skeleton's rep table.
 pub type RepId = u32;
@@ -188,7 +188,10 @@ impl Skeleton {
                 }
             }
             if u64::from(n.first_rep) != next_rep && n.rep_count > 0 {
-                return Err(node_err(i, "rep range not contiguous with the previous node".into()));
+                return Err(node_err(
+                    i,
+                    "rep range not contiguous with the previous node".into(),
+                ));
             }
             next_rep += u64::from(n.rep_count);
             if next_rep > self.reps.len() as u64 {
@@ -202,7 +205,10 @@ impl Skeleton {
             }
         }
         if next_child != n_nodes {
-            return Err(node_err(0, format!("{} nodes unreachable", n_nodes - next_child)));
+            return Err(node_err(
+                0,
+                format!("{} nodes unreachable", n_nodes - next_child),
+            ));
         }
         if next_rep != self.reps.len() as u64 {
             return Err(ValidationError::Rep {
@@ -238,12 +244,18 @@ impl Skeleton {
                 if r.tri_count == 0 || r.vertex_count == 0 {
                     return Err(rep_err("empty rep".into()));
                 }
-                let expect = RepMesh::encoded_len(r.vertex_count as usize, r.tri_count as usize * 3);
+                let expect =
+                    RepMesh::encoded_len(r.vertex_count as usize, r.tri_count as usize * 3);
                 if r.len as usize != expect {
-                    return Err(rep_err(format!("length {} but counts need {expect}", r.len)));
+                    return Err(rep_err(format!(
+                        "length {} but counts need {expect}",
+                        r.len
+                    )));
                 }
                 let end = r.offset.checked_add(u64::from(r.len));
-                if r.offset % BLOCK != 0 || r.offset < data_start || end.is_none_or(|e| e > data_end)
+                if !r.offset.is_multiple_of(BLOCK)
+                    || r.offset < data_start
+                    || end.is_none_or(|e| e > data_end)
                 {
                     return Err(rep_err(format!(
                         "byte range {}+{} not block-aligned inside {data_start}..{data_end}",

@@ -1,4 +1,5 @@
 //! Small synthetic scenes for unit tests.
+#![allow(clippy::needless_range_loop)] // index loops mirror the breadth-first layout
 
 use std::io::Cursor;
 
@@ -13,7 +14,12 @@ pub fn quad(min: [f32; 3], max: [f32; 3]) -> RepMesh {
         [max[0], max[1], min[2]],
         [min[0], max[1], max[2]],
     ];
-    RepMesh::quantize(&p, &[[0.0, 0.0, 1.0]; 4], &[[200, 100, 50, 255]; 4], vec![0, 1, 2, 0, 2, 3])
+    RepMesh::quantize(
+        &p,
+        &[[0.0, 0.0, 1.0]; 4],
+        &[[200, 100, 50, 255]; 4],
+        vec![0, 1, 2, 0, 2, 3],
+    )
 }
 
 /// Builds a scene from a shape: `rep_counts[i]` reps for node `i`, `children[i]`
@@ -69,7 +75,11 @@ pub fn build(rep_counts: &[u32], children: &[u32]) -> (Vec<u8>, Skeleton) {
         for r in 0..rep_counts[i] {
             let mesh = quad(nodes[i].bbox_min, nodes[i].bbox_max);
             let loc = writer.write_rep(&mesh.encode(i as u32, r)).unwrap();
-            let kind = if nodes[i].child_count == 0 { RepKind::Lod } else { RepKind::Hlod };
+            let kind = if nodes[i].child_count == 0 {
+                RepKind::Lod
+            } else {
+                RepKind::Hlod
+            };
             reps.push(RepRecord {
                 bbox_min: nodes[i].bbox_min,
                 bbox_max: nodes[i].bbox_max,

@@ -95,7 +95,10 @@ pub enum BuildError {
     #[error("{path}: {source}")]
     Write { path: PathBuf, source: FormatError },
     #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
 }
 
 /// Table-1 figures of a finished build.
@@ -107,7 +110,10 @@ pub struct BuildStats {
     pub chunked_objects: u64,
     pub height: u32,
     pub reps: u64,
+    /// Source triangles after instancing.
     pub input_triangles: u64,
+    /// Of those, the non-degenerate ones (what the finest reps hold).
+    pub usable_triangles: u64,
     pub output_triangles: u64,
     pub skeleton_bytes: u64,
     pub data_bytes: u64,
@@ -118,8 +124,15 @@ pub struct BuildStats {
 
 /// A leaf item: one instance, or one chunk of a large object.
 enum Item {
-    Instance { mesh: usize, transform: Mat4, object: u32 },
-    Chunk { mesh: Mesh, object: u32 },
+    Instance {
+        mesh: usize,
+        transform: Mat4,
+        object: u32,
+    },
+    Chunk {
+        mesh: Mesh,
+        object: u32,
+    },
 }
 
 /// A finished node's coarsest rep, kept for its parent's HLOD.
@@ -129,7 +142,12 @@ struct Coarse {
 }
 
 /// Builds `input` into the scene file `output` (written atomically).
-pub fn build_file(input: &Path, output: &Path, params: &BuildParams, progress: bool) -> Result<BuildStats, BuildError> {
+pub fn build_file(
+    input: &Path,
+    output: &Path,
+    params: &BuildParams,
+    progress: bool,
+) -> Result<BuildStats, BuildError> {
     params.check()?;
     let t0 = Instant::now();
     let imported = import::load(input)?;
@@ -147,10 +165,11 @@ pub fn build_file(input: &Path, output: &Path, params: &BuildParams, progress: b
         .tempfile_in(dir)
         .map_err(io_err)?;
     let sink = BufWriter::with_capacity(1 << 20, tmp.reopen().map_err(io_err)?);
-    let mut stats = build_scene(&imported, sink, params, progress).map_err(|source| BuildError::Write {
-        path: output.to_path_buf(),
-        source,
-    })?;
+    let mut stats =
+        build_scene(&imported, sink, params, progress).map_err(|source| BuildError::Write {
+            path: output.to_path_buf(),
+            source,
+        })?;
     tmp.as_file().sync_all().map_err(io_err)?;
     tmp.persist(output).map_err(|e| io_err(e.error))?;
     stats.file_bytes = std::fs::metadata(output).map_err(io_err)?.len();
@@ -167,7 +186,8 @@ pub fn build_scene<W: Write + std::io::Seek>(
 ) -> Result<BuildStats, FormatError> {
     let mut stats = BuildStats {
         objects: imported.instances.len() as u64,
-        input_triangles: imported.instanced_triangles(),
+        input_triangles: imported.instanced_source_triangles(),
+        usable_triangles: imported.instanced_triangles(),
         warnings: imported.warnings.clone(),
         ..Default::default()
     };
@@ -175,10 +195,15 @@ pub fn build_scene<W: Write + std::io::Seek>(
     let mut items = Vec::new();
     let mut cluster_items = Vec::new();
     for (obj, inst) in imported.instances.iter().enumerate() {
-        let mesh = imported.meshes[inst.mesh].as_ref().expect("instances refer to usable meshes");
+        let mesh = imported.meshes[inst.mesh]
+            .as_ref()
+            .expect("instances refer to usable meshes");
         if mesh.tri_count() > params.chunk_tris {
             stats.chunked_objects += 1;
-            for chunk in mesh.transformed(&inst.transform).split_spatial(params.chunk_tris) {
+            for chunk in mesh
+                .transformed(&inst.transform)
+                .split_spatial(params.chunk_tris)
+            {
                 cluster_items.push(ClusterItem {
                     bounds: chunk.bounds(),
                     tris: chunk.tri_count(),
@@ -204,9 +229,11 @@ pub fn build_scene<W: Write + std::io::Seek>(
     let tree = cluster(&cluster_items, params.branching, params.leaf_tris);
     let bar = if progress {
         ProgressBar::new(tree.len() as u64).with_style(
-            ProgressStyle::with_template("{spinner} {msg:12} [{bar:40}] {pos}/{len} nodes  {elapsed}")
-                .expect("static template")
-                .progress_chars("=> "),
+            ProgressStyle::with_template(
+                "{spinner} {msg:12} [{bar:40}] {pos}/{len} nodes  {elapsed}",
+            )
+            .expect("static template")
+            .progress_chars("=> "),
         )
     } else {
         ProgressBar::hidden()
@@ -225,9 +252,19 @@ pub fn build_scene<W: Write + std::io::Seek>(
     shared.dedup();
     let chains: Vec<(usize, Vec<crate::lod::Level>)> = shared
         .par_iter()
-        .map(|&m| (m, lod_chain(imported.meshes[m].as_ref().expect("usable"), &params.lod)))
+        .map(|&m| {
+            (
+                m,
+                lod_chain(imported.meshes[m].as_ref().expect("usable"), &params.lod),
+            )
+        })
         .collect();
-    let chain_of = |m: usize| &chains[chains.binary_search_by_key(&m, |(k, _)| *k).expect("computed")].1;
+    let chain_of = |m: usize| {
+        &chains[chains
+            .binary_search_by_key(&m, |(k, _)| *k)
+            .expect("computed")]
+        .1
+    };
 
     let mut writer = SceneWriter::new(sink)?;
     let mut nodes = vec![NodeRecord::default(); tree.len()];
@@ -243,7 +280,9 @@ pub fn build_scene<W: Write + std::io::Seek>(
     }
     // 4. Leaves, in batches, written in breadth-first order.
     bar.set_message("leaf LODs");
-    let leaves: Vec<usize> = (0..tree.len()).filter(|&i| !tree[i].items.is_empty()).collect();
+    let leaves: Vec<usize> = (0..tree.len())
+        .filter(|&i| !tree[i].items.is_empty())
+        .collect();
     stats.leaves = leaves.len() as u64;
     for batch in leaves.chunks(64) {
         let made: Vec<Vec<crate::lod::Level>> = batch
@@ -251,7 +290,11 @@ pub fn build_scene<W: Write + std::io::Seek>(
             .map(|&i| leaf_levels(&tree[i].items, &items, imported, params, &chain_of))
             .collect();
         for (&i, levels) in batch.iter().zip(made) {
-            let objects: Vec<u32> = tree[i].items.iter().map(|&k| item_object(&items[k as usize])).collect();
+            let objects: Vec<u32> = tree[i]
+                .items
+                .iter()
+                .map(|&k| item_object(&items[k as usize]))
+                .collect();
             let n = &mut nodes[i];
             n.object_count = objects.len() as u32;
             if objects.len() == 1 {
@@ -293,21 +336,31 @@ pub fn build_scene<W: Write + std::io::Seek>(
             let made: Vec<(Mesh, f32, f32)> = inputs
                 .into_par_iter()
                 .map(|(merged, floor)| {
-                    let budget = ((merged.tri_count() as f32 * params.hlod_ratio) as usize)
-                        .clamp(params.lod.min_tris.min(merged.tri_count()), params.hlod_tris);
+                    let budget = ((merged.tri_count() as f32 * params.hlod_ratio) as usize).clamp(
+                        params.lod.min_tris.min(merged.tri_count()),
+                        params.hlod_tris,
+                    );
                     let (m, e) = hlod(&merged, budget);
                     (m, floor, e)
                 })
                 .collect();
             for (&i, (mesh, floor, e)) in batch.iter().zip(made) {
-                let level = crate::lod::Level { mesh, error: floor + e };
-                let (recs, c) = write_chain(&mut writer, i as u32, vec![level], RepKind::Hlod, floor)?;
+                let level = crate::lod::Level {
+                    mesh,
+                    error: floor + e,
+                };
+                let (recs, c) =
+                    write_chain(&mut writer, i as u32, vec![level], RepKind::Hlod, floor)?;
                 let child_boxes: Vec<([f32; 3], [f32; 3])> = tree[i]
                     .children
                     .iter()
                     .map(|&ch| (nodes[ch as usize].bbox_min, nodes[ch as usize].bbox_max))
                     .collect();
-                nodes[i].object_count = tree[i].children.iter().map(|&ch| nodes[ch as usize].object_count).sum();
+                nodes[i].object_count = tree[i]
+                    .children
+                    .iter()
+                    .map(|&ch| nodes[ch as usize].object_count)
+                    .sum();
                 finish_node(&mut nodes[i], &recs, &c.mesh, &child_boxes);
                 node_reps[i] = recs;
                 coarse[i] = Some(c);
@@ -337,7 +390,8 @@ pub fn build_scene<W: Write + std::io::Seek>(
     stats.height = skeleton.height();
     stats.reps = skeleton.reps.len() as u64;
     stats.output_triangles = skeleton.total_triangles();
-    stats.skeleton_bytes = (std::mem::size_of_val(skeleton.nodes.as_slice()) + std::mem::size_of_val(skeleton.reps.as_slice())) as u64;
+    stats.skeleton_bytes = (std::mem::size_of_val(skeleton.nodes.as_slice())
+        + std::mem::size_of_val(skeleton.reps.as_slice())) as u64;
     stats.data_bytes = skeleton.reps.iter().map(|r| u64::from(r.len)).sum();
     Ok(stats)
 }
@@ -358,7 +412,9 @@ fn leaf_levels<'a>(
 ) -> Vec<crate::lod::Level> {
     if let [k] = leaf_items {
         match &items[*k as usize] {
-            Item::Instance { mesh, transform, .. } => {
+            Item::Instance {
+                mesh, transform, ..
+            } => {
                 let scale = max_scale(transform);
                 return chain_of(*mesh)
                     .iter()
@@ -380,9 +436,12 @@ fn leaf_levels<'a>(
     let parts: Vec<Mesh> = leaf_items
         .iter()
         .map(|&k| match &items[k as usize] {
-            Item::Instance { mesh, transform, .. } => {
-                imported.meshes[*mesh].as_ref().expect("usable").transformed(transform)
-            }
+            Item::Instance {
+                mesh, transform, ..
+            } => imported.meshes[*mesh]
+                .as_ref()
+                .expect("usable")
+                .transformed(transform),
             Item::Chunk { mesh, .. } => mesh.clone(),
         })
         .collect();
@@ -400,7 +459,11 @@ fn write_chain<W: Write + std::io::Seek>(
 ) -> Result<(Vec<RepRecord>, Coarse), FormatError> {
     let n = levels.len();
     let mut recs = vec![RepRecord::default(); n];
-    let mut below = if kind == RepKind::Hlod { Some(floor) } else { None };
+    let mut below = if kind == RepKind::Hlod {
+        Some(floor)
+    } else {
+        None
+    };
     // Finest first, so each coarser error is made strictly larger.
     for (i, level) in levels.iter().enumerate().rev() {
         let m = &level.mesh;
@@ -429,14 +492,22 @@ fn write_chain<W: Write + std::io::Seek>(
         };
     }
     let first = levels.into_iter().next().expect("at least one level");
-    Ok((recs.clone(), Coarse {
-        mesh: first.mesh,
-        error: recs[0].error,
-    }))
+    Ok((
+        recs.clone(),
+        Coarse {
+            mesh: first.mesh,
+            error: recs[0].error,
+        },
+    ))
 }
 
 /// Box and colour of a node from its reps and children.
-fn finish_node(n: &mut NodeRecord, reps: &[RepRecord], color_mesh: &Mesh, child_boxes: &[([f32; 3], [f32; 3])]) {
+fn finish_node(
+    n: &mut NodeRecord,
+    reps: &[RepRecord],
+    color_mesh: &Mesh,
+    child_boxes: &[([f32; 3], [f32; 3])],
+) {
     let mut b = Aabb::EMPTY;
     for r in reps {
         b.add(r.bbox_min.into());
@@ -466,5 +537,8 @@ fn transformed_bounds(b: Aabb, m: &Mat4) -> Aabb {
 /// Largest stretch of the transform's linear part (scales object-space errors).
 fn max_scale(m: &Mat4) -> f32 {
     let l = Mat3::from_mat4(*m);
-    l.x_axis.length().max(l.y_axis.length()).max(l.z_axis.length())
+    l.x_axis
+        .length()
+        .max(l.y_axis.length())
+        .max(l.z_axis.length())
 }

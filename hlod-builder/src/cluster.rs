@@ -88,7 +88,13 @@ fn all_prims(bvh: &obvhs::bvh2::Bvh2, i: usize, out: &mut Vec<u32>) {
     }
 }
 
-fn convert(bvh: &obvhs::bvh2::Bvh2, i: usize, tris: &[usize], branching: usize, leaf_tris: usize) -> Proto {
+fn convert(
+    bvh: &obvhs::bvh2::Bvh2,
+    i: usize,
+    tris: &[usize],
+    branching: usize,
+    leaf_tris: usize,
+) -> Proto {
     let node = &bvh.nodes[i];
     if node.is_leaf() || tris[i] <= leaf_tris {
         let mut p = Vec::new();

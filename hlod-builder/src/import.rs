@@ -47,17 +47,27 @@ pub struct Imported {
     /// One entry per glTF mesh; `None` when it has no usable triangles.
     pub meshes: Vec<Option<Mesh>>,
     pub instances: Vec<Instance>,
+    /// Triangles of each mesh as read, before degenerate ones were dropped.
+    pub source_tris: Vec<u64>,
     /// Parts skipped, with the reason.
     pub warnings: Vec<String>,
 }
 
 impl Imported {
-    /// Triangles after instancing.
+    /// Usable triangles after instancing (degenerate ones dropped).
     pub fn instanced_triangles(&self) -> u64 {
         self.instances
             .iter()
             .filter_map(|i| self.meshes[i.mesh].as_ref())
             .map(|m| m.tri_count() as u64)
+            .sum()
+    }
+
+    /// Source triangles after instancing, as the file has them.
+    pub fn instanced_source_triangles(&self) -> u64 {
+        self.instances
+            .iter()
+            .map(|i| self.source_tris[i.mesh])
             .sum()
     }
 }
@@ -88,8 +98,9 @@ pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported
     let doc = &gltf.document;
     let mut out = Imported::default();
     for mesh in doc.meshes() {
-        let m = read_mesh(&mesh, &buffers, &mut out.warnings).map_err(&invalid)?;
+        let (m, source) = read_mesh(&mesh, &buffers, &mut out.warnings).map_err(&invalid)?;
         out.meshes.push(m);
+        out.source_tris.push(source);
     }
     // Walk the default scene (or the first, or every root node).
     let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
@@ -104,8 +115,11 @@ pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported
             doc.nodes().filter(|n| !is_child[n.index()]).collect()
         }
     };
-    let mut stack: Vec<(gltf::Node, Mat4, usize)> =
-        roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    let mut stack: Vec<(gltf::Node, Mat4, usize)> = roots
+        .into_iter()
+        .rev()
+        .map(|n| (n, Mat4::IDENTITY, 0))
+        .collect();
     while let Some((node, parent, depth)) = stack.pop() {
         if depth > MAX_NODE_DEPTH {
             return Err(invalid(format!(
@@ -120,8 +134,10 @@ pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported
                 .name()
                 .map_or_else(|| format!("node{}", node.index()), str::to_string);
             if !world.is_finite() {
-                out.warnings
-                    .push(format!("node {}: non-finite transform, skipped", node.index()));
+                out.warnings.push(format!(
+                    "node {}: non-finite transform, skipped",
+                    node.index()
+                ));
             } else if out.meshes[mesh.index()].is_some() {
                 out.instances.push(Instance {
                     mesh: mesh.index(),
@@ -143,7 +159,11 @@ pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported
     Ok(out)
 }
 
-fn load_buffers(gltf: &gltf::Gltf, base_dir: &Path, path: &Path) -> Result<Vec<Vec<u8>>, ImportError> {
+fn load_buffers(
+    gltf: &gltf::Gltf,
+    base_dir: &Path,
+    path: &Path,
+) -> Result<Vec<Vec<u8>>, ImportError> {
     let invalid = |what: String| ImportError::Invalid {
         path: path.to_path_buf(),
         what,
@@ -151,23 +171,28 @@ fn load_buffers(gltf: &gltf::Gltf, base_dir: &Path, path: &Path) -> Result<Vec<V
     let mut out = Vec::new();
     for buf in gltf.document.buffers() {
         let data = match buf.source() {
-            gltf::buffer::Source::Bin => gltf
-                .blob
-                .clone()
-                .ok_or_else(|| invalid(format!("buffer {} refers to a missing GLB BIN chunk", buf.index())))?,
+            gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| {
+                invalid(format!(
+                    "buffer {} refers to a missing GLB BIN chunk",
+                    buf.index()
+                ))
+            })?,
             gltf::buffer::Source::Uri(uri) => {
                 if let Some(rest) = uri.strip_prefix("data:") {
-                    let b64 = rest
-                        .split_once(";base64,")
-                        .map(|(_, d)| d)
-                        .ok_or_else(|| invalid(format!("buffer {}: unsupported data URI", buf.index())))?;
+                    let b64 = rest.split_once(";base64,").map(|(_, d)| d).ok_or_else(|| {
+                        invalid(format!("buffer {}: unsupported data URI", buf.index()))
+                    })?;
                     base64::engine::general_purpose::STANDARD
                         .decode(b64)
                         .map_err(|e| invalid(format!("buffer {}: bad base64: {e}", buf.index())))?
                 } else {
                     let file = base_dir.join(percent_decode(uri));
                     std::fs::read(&file).map_err(|e| {
-                        invalid(format!("buffer {}: cannot read {}: {e}", buf.index(), file.display()))
+                        invalid(format!(
+                            "buffer {}: cannot read {}: {e}",
+                            buf.index(),
+                            file.display()
+                        ))
                     })?
                 }
             }
@@ -205,24 +230,32 @@ fn percent_decode(s: &str) -> String {
 }
 
 /// All primitives of a mesh merged, each vertex coloured by its material's
-/// base colour.
+/// base colour; with the triangle count read (degenerate ones included).
 fn read_mesh(
     mesh: &gltf::Mesh,
     buffers: &[Vec<u8>],
     warnings: &mut Vec<String>,
-) -> Result<Option<Mesh>, String> {
+) -> Result<(Option<Mesh>, u64), String> {
     let mut out = Mesh::default();
+    let mut source = 0u64;
     for prim in mesh.primitives() {
         let what = format!("mesh {} primitive {}", mesh.index(), prim.index());
         let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
             warnings.push(format!("{what}: no POSITION, skipped"));
             continue;
         };
-        if !matches!(prim.mode(), Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
-            warnings.push(format!("{what}: mode {:?} is not triangles, skipped", prim.mode()));
+        if !matches!(
+            prim.mode(),
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
+            warnings.push(format!(
+                "{what}: mode {:?} is not triangles, skipped",
+                prim.mode()
+            ));
             continue;
         }
-        let positions = read_vec3(&pos_acc, buffers).map_err(|e| format!("{what} POSITION: {e}"))?;
+        let positions =
+            read_vec3(&pos_acc, buffers).map_err(|e| format!("{what} POSITION: {e}"))?;
         if positions.iter().flatten().any(|c| !c.is_finite()) {
             warnings.push(format!("{what}: non-finite positions, skipped"));
             continue;
@@ -230,7 +263,8 @@ fn read_mesh(
         let normals = match prim.get(&gltf::Semantic::Normals) {
             Some(acc) => {
                 let n = read_vec3(&acc, buffers).map_err(|e| format!("{what} NORMAL: {e}"))?;
-                (n.len() == positions.len() && n.iter().flatten().all(|c| c.is_finite())).then_some(n)
+                (n.len() == positions.len() && n.iter().flatten().all(|c| c.is_finite()))
+                    .then_some(n)
             }
             None => None,
         };
@@ -257,6 +291,7 @@ fn read_mesh(
         if normals.is_none() {
             part.compute_normals();
         }
+        source += part.tri_count() as u64;
         let dropped = part.remove_degenerate();
         if dropped > 0 {
             warnings.push(format!("{what}: {dropped} degenerate triangles dropped"));
@@ -264,10 +299,13 @@ fn read_mesh(
         out.append(&part);
     }
     if out.tri_count() == 0 {
-        warnings.push(format!("mesh {}: no usable triangles, its instances skipped", mesh.index()));
-        return Ok(None);
+        warnings.push(format!(
+            "mesh {}: no usable triangles, its instances skipped",
+            mesh.index()
+        ));
+        return Ok((None, source));
     }
-    Ok(Some(out))
+    Ok((Some(out), source))
 }
 
 fn triangulate(mode: Mode, idx: &[u32]) -> Vec<u32> {
@@ -294,7 +332,10 @@ fn elements<'a>(
     buffers: &'a [Vec<u8>],
 ) -> Result<impl Iterator<Item = &'a [u8]> + 'a, String> {
     if acc.sparse().is_some() {
-        return Err(format!("accessor {}: sparse accessors are not supported", acc.index()));
+        return Err(format!(
+            "accessor {}: sparse accessors are not supported",
+            acc.index()
+        ));
     }
     let view = acc
         .view()
@@ -346,7 +387,8 @@ fn read_vec3(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<[f32; 3]>,
     }
     Ok(elements(acc, buffers)?
         .map(|e| {
-            let f = |k: usize| f32::from_le_bytes([e[4 * k], e[4 * k + 1], e[4 * k + 2], e[4 * k + 3]]);
+            let f =
+                |k: usize| f32::from_le_bytes([e[4 * k], e[4 * k + 1], e[4 * k + 2], e[4 * k + 3]]);
             [f(0), f(1), f(2)]
         })
         .collect())
@@ -359,8 +401,17 @@ fn read_indices(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>, S
     let it = elements(acc, buffers)?;
     Ok(match acc.data_type() {
         DataType::U8 => it.map(|e| u32::from(e[0])).collect(),
-        DataType::U16 => it.map(|e| u32::from(u16::from_le_bytes([e[0], e[1]]))).collect(),
-        DataType::U32 => it.map(|e| u32::from_le_bytes([e[0], e[1], e[2], e[3]])).collect(),
-        t => return Err(format!("accessor {}: index type {t:?} is not unsigned", acc.index())),
+        DataType::U16 => it
+            .map(|e| u32::from(u16::from_le_bytes([e[0], e[1]])))
+            .collect(),
+        DataType::U32 => it
+            .map(|e| u32::from_le_bytes([e[0], e[1], e[2], e[3]]))
+            .collect(),
+        t => {
+            return Err(format!(
+                "accessor {}: index type {t:?} is not unsigned",
+                acc.index()
+            ));
+        }
     })
 }

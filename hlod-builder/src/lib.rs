@@ -15,10 +15,10 @@
 
 pub mod build;
 pub mod cluster;
-pub mod scenegen;
 pub mod import;
 pub mod lod;
 pub mod mesh;
+pub mod scenegen;
 pub mod summary;
 
 pub use build::{BuildError, BuildParams, BuildStats, build_file};

@@ -56,7 +56,12 @@ pub fn optimize(mesh: &Mesh) -> Mesh {
 
 /// Simplifies towards `target` triangles. Returns the result and its error in
 /// the mesh's units, or `None` when nothing could be removed.
-pub fn simplify(mesh: &Mesh, target: usize, lock_border: bool, allow_sloppy: bool) -> Option<(Mesh, f32)> {
+pub fn simplify(
+    mesh: &Mesh,
+    target: usize,
+    lock_border: bool,
+    allow_sloppy: bool,
+) -> Option<(Mesh, f32)> {
     let positions: &[u8] = bytemuck::cast_slice(&mesh.positions);
     let adapter = meshopt::VertexDataAdapter::new(positions, 12, 0).ok()?;
     let mut options = SimplifyOptions::ErrorAbsolute;
@@ -64,10 +69,18 @@ pub fn simplify(mesh: &Mesh, target: usize, lock_border: bool, allow_sloppy: boo
         options |= SimplifyOptions::LockBorder;
     }
     let mut err = 0f32;
-    let mut idx = meshopt::simplify(&mesh.indices, &adapter, target * 3, f32::MAX, options, Some(&mut err));
+    let mut idx = meshopt::simplify(
+        &mesh.indices,
+        &adapter,
+        target * 3,
+        f32::MAX,
+        options,
+        Some(&mut err),
+    );
     if allow_sloppy && idx.len() > target * 3 * 3 / 2 {
         let mut rel = 0f32;
-        let sloppy = meshopt::simplify_sloppy(&mesh.indices, &adapter, target * 3, 1.0, Some(&mut rel));
+        let sloppy =
+            meshopt::simplify_sloppy(&mesh.indices, &adapter, target * 3, 1.0, Some(&mut rel));
         if !sloppy.is_empty() && sloppy.len() < idx.len() {
             idx = sloppy;
             err = rel * meshopt::simplify_scale(&adapter);
@@ -148,7 +161,8 @@ mod tests {
         for i in 0..n as u32 {
             for j in 0..2 * n as u32 {
                 let a = i * w + j;
-                m.indices.extend_from_slice(&[a, a + w, a + 1, a + 1, a + w, a + w + 1]);
+                m.indices
+                    .extend_from_slice(&[a, a + w, a + 1, a + 1, a + w, a + w + 1]);
             }
         }
         m.remove_degenerate();
@@ -166,7 +180,10 @@ mod tests {
             assert!(w[0].mesh.tri_count() < w[1].mesh.tri_count());
         }
         // A unit sphere's coarse levels deviate by less than its radius.
-        let e: Vec<_> = chain.iter().map(|l| (l.mesh.tri_count(), l.error)).collect();
+        let e: Vec<_> = chain
+            .iter()
+            .map(|l| (l.mesh.tri_count(), l.error))
+            .collect();
         // Any approximation inside the unit sphere's box is within its diameter.
         assert!(chain[0].error < 2.0 && chain[0].error > 0.0, "{e:?}");
     }
@@ -175,7 +192,9 @@ mod tests {
     fn hlod_meets_its_budget() {
         let mut parts = Vec::new();
         for k in 0..8 {
-            let m = sphere(12).transformed(&glam::Mat4::from_translation(glam::Vec3::X * 3.0 * k as f32));
+            let m = sphere(12).transformed(&glam::Mat4::from_translation(
+                glam::Vec3::X * 3.0 * k as f32,
+            ));
             parts.push(m);
         }
         let merged = Mesh::merge(&parts);

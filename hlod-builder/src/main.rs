@@ -11,7 +11,11 @@ use hlod_builder::scenegen::{plant, tile};
 use hlod_builder::summary::{TABLE_HEADER, human_bytes, stats_of, table_row};
 
 #[derive(Parser, Debug)]
-#[command(name = "hlod-build", version, about = "Build out-of-core HLOD scenes from glTF 2.0")]
+#[command(
+    name = "hlod-build",
+    version,
+    about = "Build out-of-core HLOD scenes from glTF 2.0"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
@@ -102,6 +106,7 @@ fn main() -> ExitCode {
         .with_writer(std::io::stderr)
         .with_target(false)
         .without_time()
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
@@ -115,7 +120,10 @@ fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
         Cmd::Build(a) => build(a),
-        Cmd::Info { file, no_verify_data } => info(&file, !no_verify_data),
+        Cmd::Info {
+            file,
+            no_verify_data,
+        } => info(&file, !no_verify_data),
         Cmd::Gen(GenCmd::Plant {
             seed,
             objects,
@@ -167,8 +175,14 @@ fn parse_grid(s: &str) -> Result<(usize, usize)> {
     let (a, b) = s
         .split_once(['x', 'X'])
         .with_context(|| format!("--grid {s:?}: expected NxM, e.g. 8x8"))?;
-    let n: usize = a.trim().parse().with_context(|| format!("--grid {s:?}: bad N"))?;
-    let m: usize = b.trim().parse().with_context(|| format!("--grid {s:?}: bad M"))?;
+    let n: usize = a
+        .trim()
+        .parse()
+        .with_context(|| format!("--grid {s:?}: bad N"))?;
+    let m: usize = b
+        .trim()
+        .parse()
+        .with_context(|| format!("--grid {s:?}: bad M"))?;
     if n == 0 || m == 0 || n * m > 1_000_000 {
         bail!("--grid {s:?}: N and M must be positive and N*M at most 1,000,000");
     }
@@ -196,12 +210,16 @@ fn build(a: BuildArgs) -> Result<()> {
     if stats.warnings.len() > 20 {
         tracing::warn!("... {} more warnings", stats.warnings.len() - 20);
     }
-    let name = a.input.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let name = a
+        .input
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
     println!(
-        "wrote {} ({} objects split into chunks)",
+        "wrote {} ({} objects split into chunks, {} degenerate triangles dropped)",
         a.output.display(),
-        stats.chunked_objects
+        stats.chunked_objects,
+        stats.input_triangles - stats.usable_triangles
     );
     Ok(())
 }
@@ -209,10 +227,16 @@ fn build(a: BuildArgs) -> Result<()> {
 fn info(file: &std::path::Path, verify: bool) -> Result<()> {
     let scene = engine::SceneFile::open(file).with_context(|| format!("{}", file.display()))?;
     let stats = stats_of(&scene);
-    let name = file.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let name = file
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
     let s = scene.skeleton();
-    let lods = s.reps.iter().filter(|r| r.kind == engine::RepKind::Lod as u16).count();
+    let lods = s
+        .reps
+        .iter()
+        .filter(|r| r.kind == engine::RepKind::Lod as u16)
+        .count();
     let root = s.root().expect("validated scenes have a root");
     println!(
         "format v{}, {} LODs + {} HLODs, bounds {:?} .. {:?}, root error {:.4}",
@@ -221,14 +245,21 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
         s.reps.len() - lods,
         root.bbox_min,
         root.bbox_max,
-        s.reps.get(root.first_rep as usize).map_or(f32::NAN, |r| r.error)
+        s.reps
+            .get(root.first_rep as usize)
+            .map_or(f32::NAN, |r| r.error)
     );
-    println!("validate(): ok (structure, error monotonicity, boxes, byte ranges, checksums of header and skeleton)");
+    println!(
+        "validate(): ok (structure, error monotonicity, boxes, byte ranges, checksums of header and skeleton)"
+    );
     if verify {
         scene
             .verify_all_reps()
             .with_context(|| format!("{}: rep data", file.display()))?;
-        println!("data: all {} reps read back and match their checksums", s.reps.len());
+        println!(
+            "data: all {} reps read back and match their checksums",
+            s.reps.len()
+        );
     }
     Ok(())
 }

@@ -177,7 +177,10 @@ impl Mesh {
                 acc[i as usize] += n;
             }
         }
-        self.normals = acc.iter().map(|n| n.normalize_or_zero().to_array()).collect();
+        self.normals = acc
+            .iter()
+            .map(|n| n.normalize_or_zero().to_array())
+            .collect();
     }
 
     /// The colour covering most triangles (by their first vertex).
@@ -220,10 +223,18 @@ impl Mesh {
             b.add(centroid(t));
         }
         let e = b.extent();
-        let axis = if e.x >= e.y && e.x >= e.z { 0 } else if e.y >= e.z { 1 } else { 2 };
+        let axis = if e.x >= e.y && e.x >= e.z {
+            0
+        } else if e.y >= e.z {
+            1
+        } else {
+            2
+        };
         let mid = tris.len() / 2;
         tris.select_nth_unstable_by(mid, |&a, &b| {
-            centroid(a)[axis].total_cmp(&centroid(b)[axis]).then(a.cmp(&b))
+            centroid(a)[axis]
+                .total_cmp(&centroid(b)[axis])
+                .then(a.cmp(&b))
         });
         let (lo, hi) = tris.split_at_mut(mid);
         self.split_rec(lo, max_tris, out);
@@ -248,7 +259,8 @@ mod tests {
         for y in 0..n as u32 {
             for x in 0..n as u32 {
                 let i = y * w + x;
-                m.indices.extend_from_slice(&[i, i + 1, i + w + 1, i, i + w + 1, i + w]);
+                m.indices
+                    .extend_from_slice(&[i, i + 1, i + w + 1, i, i + w + 1, i + w]);
             }
         }
         m
@@ -258,7 +270,10 @@ mod tests {
     fn split_keeps_every_triangle_and_respects_the_limit() {
         let m = grid(20);
         let parts = m.split_spatial(100);
-        assert_eq!(parts.iter().map(Mesh::tri_count).sum::<usize>(), m.tri_count());
+        assert_eq!(
+            parts.iter().map(Mesh::tri_count).sum::<usize>(),
+            m.tri_count()
+        );
         assert!(parts.iter().all(|p| p.tri_count() <= 100));
         assert!(parts.len() >= 8);
     }

@@ -18,6 +18,12 @@ pub fn stats_of<S: ByteSource>(scene: &SceneFile<S>) -> BuildStats {
         height: s.height(),
         reps: s.reps.len() as u64,
         input_triangles: h.input_triangles,
+        usable_triangles: s
+            .nodes
+            .iter()
+            .filter(|n| n.is_leaf())
+            .map(|n| u64::from(s.reps[(n.first_rep + n.rep_count - 1) as usize].tri_count))
+            .sum(),
         output_triangles: s.total_triangles(),
         skeleton_bytes: h.skeleton_len,
         data_bytes: s.reps.iter().map(|r| u64::from(r.len)).sum(),
@@ -65,5 +71,9 @@ pub fn human_bytes(b: u64) -> String {
         v /= 1024.0;
         u += 1;
     }
-    if u == 0 { format!("{b} B") } else { format!("{v:.2} {}", UNITS[u]) }
+    if u == 0 {
+        format!("{b} B")
+    } else {
+        format!("{v:.2} {}", UNITS[u])
+    }
 }

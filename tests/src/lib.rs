@@ -1,1 +1,75 @@
-//! End-to-end tests live in `tests/tests/`.
+//! End-to-end tests of the builder and the scene format; the tests live in
+//! `tests/tests/`. This library holds their shared helpers.
+
+use std::path::PathBuf;
+
+/// The repository's `tests/data` directory.
+pub fn data_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data")
+}
+
+/// A glTF 2.0 JSON document with one mesh of one primitive, its buffer embedded
+/// as a data URI. `count` overrides the POSITION accessor's count.
+pub fn tiny_gltf(
+    positions: &[[f32; 3]],
+    indices: &[u32],
+    mode: u32,
+    count: Option<usize>,
+) -> String {
+    use base64::Engine as _;
+    let mut bin: Vec<u8> = Vec::new();
+    for p in positions {
+        for c in p {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    let ioff = bin.len();
+    for i in indices {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    let finite = positions
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|c| c.is_finite());
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&bin)
+    );
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1,"mode":{mode}}}]}}],
+"accessors":[
+ {{"bufferView":0,"componentType":5126,"count":{pc},"type":"VEC3","min":[{lo},{lo},{lo}],"max":[{hi},{hi},{hi}]}},
+ {{"bufferView":1,"componentType":5125,"count":{ic},"type":"SCALAR"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":{pl}}},{{"buffer":0,"byteOffset":{ioff},"byteLength":{il}}}],
+"buffers":[{{"byteLength":{bl},"uri":"{uri}"}}]}}"#,
+        pc = count.unwrap_or(positions.len()),
+        lo = finite.clone().fold(0f32, f32::min),
+        hi = finite.fold(0f32, f32::max),
+        ic = indices.len(),
+        pl = ioff,
+        il = bin.len() - ioff,
+        bl = bin.len(),
+    )
+}
+
+/// A bumpy grid of `n x n` quads.
+pub fn grid(n: u32) -> (Vec<[f32; 3]>, Vec<u32>) {
+    let mut p = Vec::new();
+    for y in 0..=n {
+        for x in 0..=n {
+            p.push([x as f32, y as f32, ((x * 7 + y * 3) % 5) as f32 * 0.1]);
+        }
+    }
+    let w = n + 1;
+    let mut idx = Vec::new();
+    for y in 0..n {
+        for x in 0..n {
+            let i = y * w + x;
+            idx.extend_from_slice(&[i, i + 1, i + w + 1, i, i + w + 1, i + w]);
+        }
+    }
+    (p, idx)
+}

@@ -172,9 +172,17 @@ pub enum FormatError {
     #[error("unsupported format version {found} (this build reads {VERSION})")]
     UnsupportedVersion { found: u32 },
     #[error("file truncated: {what} needs bytes up to {need}, file has {have}")]
-    Truncated { what: &'static str, need: u64, have: u64 },
+    Truncated {
+        what: &'static str,
+        need: u64,
+        have: u64,
+    },
     #[error("checksum mismatch in {what}: stored {stored:08x}, computed {computed:08x}")]
-    Checksum { what: String, stored: u32, computed: u32 },
+    Checksum {
+        what: String,
+        stored: u32,
+        computed: u32,
+    },
     #[error("corrupt header: {0}")]
     BadHeader(String),
     #[error("rep {rep}: {reason}")]

@@ -180,7 +180,7 @@ fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
         + u64::from(header.rep_count) * size_of::<RepRecord>() as u64;
     if header.data_offset != BLOCK
         || header.data_offset.checked_add(header.data_len) != Some(header.skeleton_offset)
-        || header.skeleton_offset % BLOCK != 0
+        || !header.skeleton_offset.is_multiple_of(BLOCK)
         || header.skeleton_len != records
         || header.skeleton_offset.checked_add(header.skeleton_len) != Some(header.file_len)
     {

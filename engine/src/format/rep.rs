@@ -57,7 +57,11 @@ pub struct RepMesh {
 /// Snorm8 encoding of a unit normal (zero vectors stay zero).
 pub fn quantize_unit_normal(n: [f32; 3]) -> [i8; 4] {
     let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-    let inv = if len > 0.0 && len.is_finite() { 1.0 / len } else { 0.0 };
+    let inv = if len > 0.0 && len.is_finite() {
+        1.0 / len
+    } else {
+        0.0
+    };
     let q = |c: f32| (c * inv * 127.0).round().clamp(-127.0, 127.0) as i8;
     [q(n[0]), q(n[1]), q(n[2]), 0]
 }
@@ -157,7 +161,8 @@ impl RepMesh {
             quant_min: self.quant_min,
             quant_scale: self.quant_scale,
         };
-        let mut out = Vec::with_capacity(Self::encoded_len(self.vertices.len(), self.indices.len()));
+        let mut out =
+            Vec::with_capacity(Self::encoded_len(self.vertices.len(), self.indices.len()));
         out.extend_from_slice(bytemuck::bytes_of(&header));
         out.extend_from_slice(bytemuck::cast_slice(&self.vertices));
         if index_size == 2 {
@@ -182,7 +187,10 @@ impl RepMesh {
         };
         let hsize = size_of::<RepHeader>();
         if bytes.len() < hsize {
-            return Err(bad(format!("payload of {} bytes has no header", bytes.len())));
+            return Err(bad(format!(
+                "payload of {} bytes has no header",
+                bytes.len()
+            )));
         }
         let h: RepHeader = bytemuck::pod_read_unaligned(&bytes[..hsize]);
         if h.magic != REP_MAGIC {
@@ -200,7 +208,10 @@ impl RepMesh {
         }
         let expect_isize = if vc <= 1 << 16 { 2 } else { 4 };
         if h.index_size as usize != expect_isize {
-            return Err(bad(format!("index size {} for {vc} vertices", h.index_size)));
+            return Err(bad(format!(
+                "index size {} for {vc} vertices",
+                h.index_size
+            )));
         }
         if bytes.len() != Self::encoded_len(vc, ic) {
             return Err(bad(format!(
@@ -209,7 +220,11 @@ impl RepMesh {
                 Self::encoded_len(vc, ic)
             )));
         }
-        if !h.quant_min.iter().chain(&h.quant_scale).all(|x| x.is_finite())
+        if !h
+            .quant_min
+            .iter()
+            .chain(&h.quant_scale)
+            .all(|x| x.is_finite())
             || h.quant_scale.iter().any(|&s| s < 0.0)
         {
             return Err(bad("non-finite or negative quantisation box".into()));

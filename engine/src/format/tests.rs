@@ -23,10 +23,18 @@ fn opening_reads_no_rep_data() {
     // Zero the whole data section: opening must still succeed (it never looks
     // there), and reading a rep must then fail its checksum.
     let (mut bytes, skeleton) = build(&[1, 2, 3], &[2, 0, 0]);
-    let end = skeleton.reps.iter().map(|r| r.offset + BLOCK).max().unwrap() as usize;
+    let end = skeleton
+        .reps
+        .iter()
+        .map(|r| r.offset + BLOCK)
+        .max()
+        .unwrap() as usize;
     bytes[BLOCK as usize..end].fill(0);
     let scene = SceneFile::from_source(MemSource::new(bytes)).unwrap();
-    assert!(matches!(scene.read_rep(0), Err(FormatError::Checksum { .. })));
+    assert!(matches!(
+        scene.read_rep(0),
+        Err(FormatError::Checksum { .. })
+    ));
 }
 
 #[test]
@@ -59,7 +67,10 @@ fn bit_flip_in_a_rep_fails_only_that_rep() {
     let target = skeleton.reps[2];
     bytes[target.offset as usize + 100] ^= 1;
     let scene = SceneFile::from_source(MemSource::new(bytes)).unwrap();
-    assert!(matches!(scene.read_rep(2), Err(FormatError::Checksum { .. })));
+    assert!(matches!(
+        scene.read_rep(2),
+        Err(FormatError::Checksum { .. })
+    ));
     assert!(scene.read_rep(1).is_ok());
     assert!(scene.verify_all_reps().is_err());
 }
@@ -94,7 +105,11 @@ fn shape() -> impl Strategy<Value = (Vec<u32>, Vec<u32>)> {
             if i >= total {
                 break;
             }
-            let c = if total + (*c as usize) <= spec.len() { *c } else { 0 };
+            let c = if total + (*c as usize) <= spec.len() {
+                *c
+            } else {
+                0
+            };
             total += c as usize;
             children.push(c);
             reps.push(*r);

@@ -94,4 +94,5 @@ impl<W: Write + Seek> SceneWriter<W> {
     }
 }
 
-const _: () = assert!(size_of::<NodeRecord>() % 8 == 0 && size_of::<RepRecord>() % 8 == 0);
+const _: () =
+    assert!(size_of::<NodeRecord>().is_multiple_of(8) && size_of::<RepRecord>().is_multiple_of(8));

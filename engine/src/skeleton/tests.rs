@@ -59,14 +59,38 @@ fn validate_rejects_broken_hierarchies() {
         check(&|s| s.reps[4].bbox_min[1] = -3.0),
         ValidationError::BoxNotContained { .. }
     ));
-    assert!(matches!(check(&|s| s.reps[1].offset += 1), ValidationError::Rep { .. }));
-    assert!(matches!(check(&|s| s.reps[1].offset = s.reps[2].offset), ValidationError::Overlap { .. }));
-    assert!(matches!(check(&|s| s.reps[1].error = f32::NAN), ValidationError::Rep { .. }));
-    assert!(matches!(check(&|s| s.reps[1].kind = 1), ValidationError::Rep { .. }));
-    assert!(matches!(check(&|s| s.nodes[2].parent = 2), ValidationError::Node { .. }));
-    assert!(matches!(check(&|s| s.nodes[0].child_count = 1), ValidationError::Node { .. }));
-    assert!(matches!(check(&|s| s.nodes[1].rep_count = 0), ValidationError::Node { .. }));
-    assert!(matches!(check(&|s| s.reps[5].tri_count += 1), ValidationError::Rep { .. }));
+    assert!(matches!(
+        check(&|s| s.reps[1].offset += 1),
+        ValidationError::Rep { .. }
+    ));
+    assert!(matches!(
+        check(&|s| s.reps[1].offset = s.reps[2].offset),
+        ValidationError::Overlap { .. }
+    ));
+    assert!(matches!(
+        check(&|s| s.reps[1].error = f32::NAN),
+        ValidationError::Rep { .. }
+    ));
+    assert!(matches!(
+        check(&|s| s.reps[1].kind = 1),
+        ValidationError::Rep { .. }
+    ));
+    assert!(matches!(
+        check(&|s| s.nodes[2].parent = 2),
+        ValidationError::Node { .. }
+    ));
+    assert!(matches!(
+        check(&|s| s.nodes[0].child_count = 1),
+        ValidationError::Node { .. }
+    ));
+    assert!(matches!(
+        check(&|s| s.nodes[1].rep_count = 0),
+        ValidationError::Node { .. }
+    ));
+    assert!(matches!(
+        check(&|s| s.reps[5].tri_count += 1),
+        ValidationError::Rep { .. }
+    ));
     assert_eq!(
         Skeleton::default().validate(0, 0).unwrap_err(),
         ValidationError::Empty

@@ -54,8 +54,10 @@ pub fn to_glb(meshes: &[Mesh], objects: &[GlbObject]) -> Vec<u8> {
             let nv = push_view(&mut bin, bytemuck::cast_slice(&part.normals), 34962);
             let iv = push_view(&mut bin, bytemuck::cast_slice(&part.indices), 34963);
             let a = accessors.len();
-            accessors.push(json!({"bufferView": pv, "componentType": 5126, "count": part.vertex_count(),
-                "type": "VEC3", "min": b.min.to_array(), "max": b.max.to_array()}));
+            accessors.push(
+                json!({"bufferView": pv, "componentType": 5126, "count": part.vertex_count(),
+                "type": "VEC3", "min": b.min.to_array(), "max": b.max.to_array()}),
+            );
             accessors.push(json!({"bufferView": nv, "componentType": 5126, "count": part.vertex_count(), "type": "VEC3"}));
             accessors.push(json!({"bufferView": iv, "componentType": 5125, "count": part.indices.len(), "type": "SCALAR"}));
             prims.push(json!({"attributes": {"POSITION": a, "NORMAL": a + 1}, "indices": a + 2, "material": material}));
@@ -128,7 +130,10 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::Builder::new().prefix(".hlod-gen-").suffix(".tmp").tempfile_in(dir)?;
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".hlod-gen-")
+        .suffix(".tmp")
+        .tempfile_in(dir)?;
     tmp.write_all(bytes)?;
     tmp.as_file().sync_all()?;
     tmp.persist(path).map_err(|e| e.error)?;

@@ -106,7 +106,10 @@ impl ShapeBuilder {
 
     /// An axis-aligned box.
     pub fn cuboid(&mut self, center: Vec3, half: Vec3) {
-        self.oriented_box(center, [Vec3::X * half.x, Vec3::Y * half.y, Vec3::Z * half.z]);
+        self.oriented_box(
+            center,
+            [Vec3::X * half.x, Vec3::Y * half.y, Vec3::Z * half.z],
+        );
     }
 
     /// A box given by its centre and three orthogonal half-axes.
@@ -116,7 +119,8 @@ impl ShapeBuilder {
             for sign in [1.0f32, -1.0] {
                 let nn = (n * sign).normalize_or_zero();
                 let fc = c + n * sign;
-                let q = [fc - u - v, fc + u - v, fc + u + v, fc - u + v].map(|p| self.vertex(p, nn));
+                let q =
+                    [fc - u - v, fc + u - v, fc + u + v, fc - u + v].map(|p| self.vertex(p, nn));
                 if u.cross(v).dot(nn) > 0.0 {
                     self.tri(q[0], q[1], q[2]);
                     self.tri(q[0], q[2], q[3]);
@@ -128,11 +132,21 @@ impl ShapeBuilder {
         }
     }
 
-    /// A 90° pipe elbow at `corner` turning from `dir_in` to `dir_out`
-    /// (`2 * bend * radial` triangles).
-    pub fn elbow(&mut self, corner: Vec3, dir_in: Vec3, dir_out: Vec3, bend_r: f32, r: f32, bend: u32, radial: u32) {
+    /// A 90° pipe elbow at `corner` turning from `dir_in` to `dir_out`, with
+    /// bend radius and pipe radius (`2 * bend * radial` triangles).
+    pub fn elbow(
+        &mut self,
+        corner: Vec3,
+        dir_in: Vec3,
+        dir_out: Vec3,
+        (bend_r, r): (f32, f32),
+        bend: u32,
+        radial: u32,
+    ) {
         let center = corner - dir_in * bend_r + dir_out * bend_r;
-        let b = dir_in.cross(dir_out).normalize_or(dir_in.any_orthonormal_vector());
+        let b = dir_in
+            .cross(dir_out)
+            .normalize_or(dir_in.any_orthonormal_vector());
         let bend = bend.max(2);
         let radial = radial.max(3);
         self.tube(bend, radial, |row, col| {
@@ -156,7 +170,12 @@ impl ShapeBuilder {
             (center + n * r, n)
         });
         let top_lat = FRAC_PI_2 * rings as f32 / (rings as f32 + 0.5);
-        self.disc(center + up * r * top_lat.sin(), up, r * top_lat.cos(), radial);
+        self.disc(
+            center + up * r * top_lat.sin(),
+            up,
+            r * top_lat.cos(),
+            radial,
+        );
     }
 }
 
@@ -189,7 +208,7 @@ mod tests {
         assert_eq!(s.mesh.tri_count(), 24);
         assert!(outward(&s.mesh) > 0.99);
         let mut s = ShapeBuilder::new([1, 2, 3, 255]);
-        s.elbow(Vec3::ZERO, Vec3::X, Vec3::Y, 0.3, 0.1, 8, 12);
+        s.elbow(Vec3::ZERO, Vec3::X, Vec3::Y, (0.3, 0.1), 8, 12);
         s.dome(Vec3::ZERO, Vec3::Y, 1.0, 6, 16);
         assert!(outward(&s.mesh) > 0.99, "{}", outward(&s.mesh));
     }

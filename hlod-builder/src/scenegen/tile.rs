@@ -19,7 +19,13 @@ pub struct TileStats {
 
 /// Meshes and objects of `n x m` copies of the input on the XZ plane,
 /// `gap` (a fraction of the footprint) apart; `baked` copies the geometry.
-pub fn tile(imported: &import::Imported, n: usize, m: usize, baked: bool, gap: f32) -> (Vec<Mesh>, Vec<GlbObject>) {
+pub fn tile(
+    imported: &import::Imported,
+    n: usize,
+    m: usize,
+    baked: bool,
+    gap: f32,
+) -> (Vec<Mesh>, Vec<GlbObject>) {
     let mut bounds = Aabb::EMPTY;
     for inst in &imported.instances {
         if let Some(mesh) = &imported.meshes[inst.mesh] {
@@ -47,7 +53,9 @@ pub fn tile(imported: &import::Imported, n: usize, m: usize, baked: bool, gap: f
             for inst in &imported.instances {
                 let xf = offset * inst.transform;
                 let name = format!("{}-{col}-{row}", inst.name);
-                let mesh = imported.meshes[inst.mesh].as_ref().expect("instances use usable meshes");
+                let mesh = imported.meshes[inst.mesh]
+                    .as_ref()
+                    .expect("instances use usable meshes");
                 if baked {
                     objects.push(GlbObject {
                         name,
@@ -69,13 +77,23 @@ pub fn tile(imported: &import::Imported, n: usize, m: usize, baked: bool, gap: f
 }
 
 /// Loads `input`, tiles it and writes the GLB.
-pub fn write_tiled(input: &Path, n: usize, m: usize, baked: bool, gap: f32, out: &Path) -> Result<TileStats> {
+pub fn write_tiled(
+    input: &Path,
+    n: usize,
+    m: usize,
+    baked: bool,
+    gap: f32,
+    out: &Path,
+) -> Result<TileStats> {
     if !(gap.is_finite() && gap >= 0.0) {
         anyhow::bail!("--gap must be a finite number >= 0");
     }
     let imported = import::load(input)?;
     let (meshes, objects) = tile(&imported, n, m, baked, gap);
-    let triangles = objects.iter().map(|o| meshes[o.mesh].tri_count() as u64).sum();
+    let triangles = objects
+        .iter()
+        .map(|o| meshes[o.mesh].tri_count() as u64)
+        .sum();
     let bytes = write_glb(out, &meshes, &objects).with_context(|| format!("{}", out.display()))?;
     Ok(TileStats {
         objects: objects.len(),

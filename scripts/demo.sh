@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# The main job: set-up, build, generate the demo plant, build its out-of-core scene
+# and validate it. Usage: scripts/demo.sh [TRIANGLES] (default 3,000,000).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+tris="${1:-3000000}"
+out=out/demo
+mkdir -p "$out"
+t0=$(date +%s%N)
+bash scripts/setup.sh
+t1=$(date +%s%N)
+cargo build --release --workspace
+t2=$(date +%s%N)
+target/release/hlod-build gen plant --seed 1 --objects 1200 --triangles "$tris" -o "$out/plant.glb"
+t3=$(date +%s%N)
+target/release/hlod-build build "$out/plant.glb" -o "$out/plant.hlod"
+target/release/hlod-build info "$out/plant.hlod"
+t4=$(date +%s%N)
+echo
+echo "scene: $out/plant.hlod"
+secs() { local ms=$(( ($2 - $1) / 1000000 )); printf '%d.%01d s' $((ms / 1000)) $(((ms % 1000) / 100)); }
+echo "time: set-up $(secs "$t0" "$t1"), cargo build $(secs "$t1" "$t2"), generate $(secs "$t2" "$t3"), HLOD build + validate $(secs "$t3" "$t4"), total $(secs "$t0" "$t4")"

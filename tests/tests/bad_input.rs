@@ -1,0 +1,149 @@
+//! Bad input gives typed errors naming the file, never a panic or partial output.
+
+use std::path::Path;
+
+use e2e_tests::{data_dir, grid, tiny_gltf};
+use hlod_builder::build::{BuildError, BuildParams, build_file};
+use hlod_builder::import::ImportError;
+
+fn try_build(input: &Path, dir: &Path) -> Result<(), BuildError> {
+    build_file(input, &dir.join("out.hlod"), &BuildParams::default(), false).map(|_| ())
+}
+
+/// Runs a build expected to fail; checks the directory holds nothing but the input.
+fn fails(name: &str, contents: &[u8]) -> BuildError {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join(name);
+    std::fs::write(&input, contents).unwrap();
+    let err = try_build(&input, dir.path()).unwrap_err();
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(
+        left,
+        vec![std::ffi::OsString::from(name)],
+        "partial output left behind"
+    );
+    assert!(
+        err.to_string().contains(name),
+        "error does not name the file: {err}"
+    );
+    err
+}
+
+#[test]
+fn missing_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let err = try_build(&dir.path().join("nope.glb"), dir.path()).unwrap_err();
+    assert!(matches!(err, BuildError::Import(ImportError::Read { .. })));
+    assert!(err.to_string().contains("nope.glb"));
+}
+
+#[test]
+fn not_gltf_and_truncated_glb() {
+    assert!(matches!(
+        fails("x.glb", b"hello world"),
+        BuildError::Import(ImportError::Parse { .. })
+    ));
+    let bunny = std::fs::read(data_dir().join("bunny.glb")).unwrap();
+    for cut in [12, 100, bunny.len() / 2, bunny.len() - 4] {
+        let e = fails("cut.glb", &bunny[..cut]);
+        assert!(matches!(e, BuildError::Import(_)), "cut at {cut}: {e}");
+    }
+}
+
+#[test]
+fn accessor_out_of_range() {
+    let (p, i) = grid(2);
+    let e = fails(
+        "oob.gltf",
+        tiny_gltf(&p, &i, 4, Some(p.len() + 50)).as_bytes(),
+    );
+    assert!(e.to_string().contains("out of range"), "{e}");
+}
+
+#[test]
+fn non_triangle_primitives_are_skipped_and_nothing_left_is_an_error() {
+    let (p, i) = grid(2);
+    let e = fails("lines.gltf", tiny_gltf(&p, &i, 1, None).as_bytes());
+    assert!(
+        matches!(e, BuildError::Import(ImportError::NoTriangles { .. })),
+        "{e}"
+    );
+}
+
+#[test]
+fn nan_positions_degenerate_and_empty_meshes() {
+    let (mut p, i) = grid(2);
+    p[3][1] = f32::NAN;
+    let e = fails("nan.gltf", tiny_gltf(&p, &i, 4, None).as_bytes());
+    assert!(
+        matches!(e, BuildError::Import(ImportError::NoTriangles { .. })),
+        "{e}"
+    );
+    let flat = vec![[0.0, 0.0, 0.0]; 3];
+    let e = fails(
+        "degenerate.gltf",
+        tiny_gltf(&flat, &[0, 1, 2, 0, 0, 1], 4, None).as_bytes(),
+    );
+    assert!(
+        matches!(e, BuildError::Import(ImportError::NoTriangles { .. })),
+        "{e}"
+    );
+    let e = fails("empty.gltf", tiny_gltf(&[], &[], 4, None).as_bytes());
+    assert!(matches!(e, BuildError::Import(_)), "{e}");
+}
+
+#[test]
+fn bad_index_skips_the_primitive_with_a_warning_and_strips_fans_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let (p, mut i) = grid(3);
+    i[5] = 999;
+    let input = dir.path().join("badindex.gltf");
+    std::fs::write(&input, tiny_gltf(&p, &i, 4, None)).unwrap();
+    assert!(try_build(&input, dir.path()).is_err());
+    // A strip of the same vertices builds.
+    let strip: Vec<u32> = (0..p.len() as u32).collect();
+    std::fs::write(&input, tiny_gltf(&p, &strip, 5, None)).unwrap();
+    let stats = build_file(
+        &input,
+        &dir.path().join("ok.hlod"),
+        &BuildParams::default(),
+        false,
+    )
+    .unwrap();
+    assert!(stats.input_triangles > 0);
+}
+
+#[test]
+fn absurd_parameters_are_rejected_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = data_dir().join("dragon_res4.glb");
+    let bad = [
+        BuildParams {
+            branching: 1,
+            ..Default::default()
+        },
+        BuildParams {
+            hlod_ratio: f32::NAN,
+            ..Default::default()
+        },
+        BuildParams {
+            chunk_tris: 0,
+            ..Default::default()
+        },
+        BuildParams {
+            lod: hlod_builder::lod::LodParams {
+                ratio: 1.5,
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+    ];
+    for p in bad {
+        let r = build_file(&input, &dir.path().join("o.hlod"), &p, false);
+        assert!(matches!(r, Err(BuildError::Params(_))), "{p:?}");
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
