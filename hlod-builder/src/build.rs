@@ -2,8 +2,8 @@
 //!
 //! 1. import objects (mesh instances); split very large ones into chunks;
 //! 2. cluster objects/chunks into the scene graph ([`crate::cluster`]);
-//! 3. leaves: LOD chains (per shared mesh once, in its local space, when a leaf
-//!    is one instance), written to disk as they are made;
+//! 3. leaves: LOD chains (a mesh placed by several one-instance leaves once,
+//!    in its local space), written to disk batch by batch as they are made;
 //! 4. interior nodes, deepest first: HLODs from the children's coarsest reps;
 //! 5. the skeleton and header, then an atomic rename into place.
 //!
@@ -170,6 +170,7 @@ pub fn build_file(
             path: output.to_path_buf(),
             source,
         })?;
+    crate::scenegen::glb::set_public_mode(tmp.as_file()).map_err(io_err)?;
     tmp.as_file().sync_all().map_err(io_err)?;
     tmp.persist(output).map_err(|e| io_err(e.error))?;
     stats.file_bytes = std::fs::metadata(output).map_err(io_err)?.len();
@@ -238,9 +239,10 @@ pub fn build_scene<W: Write + std::io::Seek>(
     } else {
         ProgressBar::hidden()
     };
-    // 3. Shared-mesh chains in local space, for leaves that are one instance.
+    // 3. Chains of meshes placed by several single-instance leaves, computed
+    // once in local space; other leaves compute theirs in their batch.
     bar.set_message("mesh LODs");
-    let mut shared: Vec<usize> = tree
+    let mut placed: Vec<usize> = tree
         .iter()
         .filter(|n| n.items.len() == 1)
         .filter_map(|n| match &items[n.items[0] as usize] {
@@ -248,8 +250,12 @@ pub fn build_scene<W: Write + std::io::Seek>(
             Item::Chunk { .. } => None,
         })
         .collect();
-    shared.sort_unstable();
-    shared.dedup();
+    placed.sort_unstable();
+    let shared: Vec<usize> = placed
+        .chunk_by(|a, b| a == b)
+        .filter(|run| run.len() > 1)
+        .map(|run| run[0])
+        .collect();
     let chains: Vec<(usize, Vec<crate::lod::Level>)> = shared
         .par_iter()
         .map(|&m| {
@@ -260,10 +266,10 @@ pub fn build_scene<W: Write + std::io::Seek>(
         })
         .collect();
     let chain_of = |m: usize| {
-        &chains[chains
+        chains
             .binary_search_by_key(&m, |(k, _)| *k)
-            .expect("computed")]
-        .1
+            .ok()
+            .map(|k| &chains[k].1)
     };
 
     let mut writer = SceneWriter::new(sink)?;
@@ -408,7 +414,7 @@ fn leaf_levels<'a>(
     items: &[Item],
     imported: &Imported,
     params: &BuildParams,
-    chain_of: &(dyn Fn(usize) -> &'a Vec<crate::lod::Level> + Sync),
+    chain_of: &(dyn Fn(usize) -> Option<&'a Vec<crate::lod::Level>> + Sync),
 ) -> Vec<crate::lod::Level> {
     if let [k] = leaf_items {
         match &items[*k as usize] {
@@ -416,7 +422,18 @@ fn leaf_levels<'a>(
                 mesh, transform, ..
             } => {
                 let scale = max_scale(transform);
-                return chain_of(*mesh)
+                let local;
+                let chain = match chain_of(*mesh) {
+                    Some(c) => c,
+                    None => {
+                        local = lod_chain(
+                            imported.meshes[*mesh].as_ref().expect("usable"),
+                            &params.lod,
+                        );
+                        &local
+                    }
+                };
+                return chain
                     .iter()
                     .map(|l| crate::lod::Level {
                         mesh: l.mesh.transformed(transform),

@@ -76,25 +76,35 @@ const MAX_NODE_DEPTH: usize = 256;
 
 /// Loads `path`.
 pub fn load(path: &Path) -> Result<Imported, ImportError> {
-    let bytes = std::fs::read(path).map_err(|source| ImportError::Read {
+    let gltf = {
+        let bytes = std::fs::read(path).map_err(|source| ImportError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        parse(&bytes, path)?
+    };
+    from_gltf(gltf, path.parent().unwrap_or(Path::new(".")), path)
+}
+
+fn parse(bytes: &[u8], path: &Path) -> Result<gltf::Gltf, ImportError> {
+    gltf::Gltf::from_slice(bytes).map_err(|source| ImportError::Parse {
         path: path.to_path_buf(),
         source,
-    })?;
-    load_slice(&bytes, path.parent().unwrap_or(Path::new(".")), path)
+    })
 }
 
 /// Loads glTF or GLB bytes; external buffers are resolved against `base_dir`,
 /// errors name `path`.
 pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported, ImportError> {
+    from_gltf(parse(bytes, path)?, base_dir, path)
+}
+
+fn from_gltf(mut gltf: gltf::Gltf, base_dir: &Path, path: &Path) -> Result<Imported, ImportError> {
     let invalid = |what: String| ImportError::Invalid {
         path: path.to_path_buf(),
         what,
     };
-    let gltf = gltf::Gltf::from_slice(bytes).map_err(|source| ImportError::Parse {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let buffers = load_buffers(&gltf, base_dir, path)?;
+    let buffers = load_buffers(&mut gltf, base_dir, path)?;
     let doc = &gltf.document;
     let mut out = Imported::default();
     for mesh in doc.meshes() {
@@ -160,7 +170,7 @@ pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported
 }
 
 fn load_buffers(
-    gltf: &gltf::Gltf,
+    gltf: &mut gltf::Gltf,
     base_dir: &Path,
     path: &Path,
 ) -> Result<Vec<Vec<u8>>, ImportError> {
@@ -169,9 +179,10 @@ fn load_buffers(
         what,
     };
     let mut out = Vec::new();
+    let mut blob = gltf.blob.take();
     for buf in gltf.document.buffers() {
         let data = match buf.source() {
-            gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| {
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
                 invalid(format!(
                     "buffer {} refers to a missing GLB BIN chunk",
                     buf.index()

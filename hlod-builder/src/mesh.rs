@@ -84,6 +84,15 @@ impl Mesh {
         b
     }
 
+    /// Bounds of all vertex positions, referenced or not.
+    pub fn bounds_of_all(&self) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for p in &self.positions {
+            b.add(Vec3::from(*p));
+        }
+        b
+    }
+
     /// Appends `other`'s geometry.
     pub fn append(&mut self, other: &Mesh) {
         let base = self.positions.len() as u32;

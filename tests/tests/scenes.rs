@@ -112,6 +112,25 @@ fn same_input_and_parameters_give_identical_bytes() {
     };
     build_file(&input, &dir.path().join("c.hlod"), &c_params, false).unwrap();
     assert_ne!(a, std::fs::read(dir.path().join("c.hlod")).unwrap());
+    // The thread count does not show in the output either.
+    let single = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    single
+        .install(|| {
+            build_file(
+                &input,
+                &dir.path().join("d.hlod"),
+                &BuildParams::default(),
+                false,
+            )
+        })
+        .unwrap();
+    assert!(
+        a == std::fs::read(dir.path().join("d.hlod")).unwrap(),
+        "1-thread build differs"
+    );
 }
 
 #[test]

@@ -5,7 +5,8 @@
 //! so meshes placed many times are instanced.
 
 use std::collections::BTreeMap;
-use std::io::Write;
+use std::fs::File;
+use std::io::{BufWriter, Write};
 use std::path::Path;
 
 use glam::Mat4;
@@ -21,47 +22,68 @@ pub struct GlbObject {
     pub transform: Mat4,
 }
 
-/// Serialises meshes and objects to GLB bytes.
-pub fn to_glb(meshes: &[Mesh], objects: &[GlbObject]) -> Vec<u8> {
-    let mut bin: Vec<u8> = Vec::new();
+/// Triangles of `mesh` grouped by colour (first vertex), in order of first
+/// appearance; `None` when the mesh has one colour and is written whole.
+fn colour_groups(mesh: &Mesh) -> Option<Vec<([u8; 4], Vec<usize>)>> {
+    let mut groups: Vec<([u8; 4], Vec<usize>)> = Vec::new();
+    for t in 0..mesh.tri_count() {
+        let c = mesh.colors[mesh.indices[3 * t] as usize];
+        match groups.iter_mut().find(|(k, _)| *k == c) {
+            Some((_, v)) => v.push(t),
+            None => groups.push((c, vec![t])),
+        }
+    }
+    (groups.len() > 1).then_some(groups)
+}
+
+/// Calls `f` with each primitive of `mesh`: its colour and geometry.
+fn for_each_part(mesh: &Mesh, mut f: impl FnMut([u8; 4], &Mesh)) {
+    match colour_groups(mesh) {
+        None => f(mesh.dominant_color(), mesh),
+        Some(groups) => {
+            for (color, tris) in groups {
+                f(color, &mesh.subset(tris));
+            }
+        }
+    }
+}
+
+fn pad4(n: usize) -> usize {
+    n.next_multiple_of(4)
+}
+
+/// The JSON chunk and the BIN chunk's length (first pass: layout only).
+fn layout(meshes: &[Mesh], objects: &[GlbObject]) -> (Vec<u8>, usize) {
+    let mut bin_len = 0usize;
     let mut views = Vec::new();
     let mut accessors = Vec::new();
     let mut materials: BTreeMap<[u8; 4], usize> = BTreeMap::new();
     let mut gltf_meshes = Vec::new();
-    let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8], target: u32| {
-        bin.resize(bin.len().next_multiple_of(4), 0);
-        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len(), "target": target}));
-        bin.extend_from_slice(bytes);
+    let mut view = |len: usize, target: u32| {
+        views
+            .push(json!({"buffer": 0, "byteOffset": bin_len, "byteLength": len, "target": target}));
+        bin_len += pad4(len);
         views.len() - 1
     };
     for mesh in meshes {
-        // Triangles grouped by colour, in order of first appearance.
-        let mut groups: Vec<([u8; 4], Vec<usize>)> = Vec::new();
-        for t in 0..mesh.tri_count() {
-            let c = mesh.colors[mesh.indices[3 * t] as usize];
-            match groups.iter_mut().find(|(k, _)| *k == c) {
-                Some((_, v)) => v.push(t),
-                None => groups.push((c, vec![t])),
-            }
-        }
         let mut prims = Vec::new();
-        for (color, tris) in groups {
-            let part = mesh.subset(tris);
-            let b = part.bounds();
+        for_each_part(mesh, |color, part| {
+            let b = Mesh::bounds_of_all(part);
             let n_mat = materials.len();
             let material = *materials.entry(color).or_insert(n_mat);
-            let pv = push_view(&mut bin, bytemuck::cast_slice(&part.positions), 34962);
-            let nv = push_view(&mut bin, bytemuck::cast_slice(&part.normals), 34962);
-            let iv = push_view(&mut bin, bytemuck::cast_slice(&part.indices), 34963);
+            let vc = part.vertex_count();
+            let pv = view(vc * 12, 34962);
+            let nv = view(vc * 12, 34962);
+            let iv = view(part.indices.len() * 4, 34963);
             let a = accessors.len();
+            accessors.push(json!({"bufferView": pv, "componentType": 5126, "count": vc,
+                "type": "VEC3", "min": b.min.to_array(), "max": b.max.to_array()}));
             accessors.push(
-                json!({"bufferView": pv, "componentType": 5126, "count": part.vertex_count(),
-                "type": "VEC3", "min": b.min.to_array(), "max": b.max.to_array()}),
+                json!({"bufferView": nv, "componentType": 5126, "count": vc, "type": "VEC3"}),
             );
-            accessors.push(json!({"bufferView": nv, "componentType": 5126, "count": part.vertex_count(), "type": "VEC3"}));
             accessors.push(json!({"bufferView": iv, "componentType": 5125, "count": part.indices.len(), "type": "SCALAR"}));
             prims.push(json!({"attributes": {"POSITION": a, "NORMAL": a + 1}, "indices": a + 2, "material": material}));
-        }
+        });
         gltf_meshes.push(json!({ "primitives": prims }));
     }
     let mut mats: Vec<(usize, [u8; 4])> = materials.into_iter().map(|(c, i)| (i, c)).collect();
@@ -83,7 +105,6 @@ pub fn to_glb(meshes: &[Mesh], objects: &[GlbObject]) -> Vec<u8> {
             n
         })
         .collect();
-    bin.resize(bin.len().next_multiple_of(4), 0);
     let doc = json!({
         "asset": {"version": "2.0", "generator": "hlod-build gen"},
         "scene": 0,
@@ -93,49 +114,99 @@ pub fn to_glb(meshes: &[Mesh], objects: &[GlbObject]) -> Vec<u8> {
         "materials": materials,
         "accessors": accessors,
         "bufferViews": views,
-        "buffers": [{"byteLength": bin.len()}],
+        "buffers": [{"byteLength": bin_len}],
     });
     let mut js = serde_json::to_vec(&doc).expect("JSON values serialise");
-    js.resize(js.len().next_multiple_of(4), b' ');
-    let total = 12 + 8 + js.len() + 8 + bin.len();
-    let mut out = Vec::with_capacity(total);
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(js.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&js);
-    out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&bin);
-    out
+    js.resize(pad4(js.len()), b' ');
+    (js, bin_len)
+}
+
+/// Streams meshes and objects as GLB into `w`; returns the bytes written.
+/// Memory stays at the JSON plus one primitive, whatever the scene's size.
+pub fn write_glb_to<W: Write>(
+    w: &mut W,
+    meshes: &[Mesh],
+    objects: &[GlbObject],
+) -> std::io::Result<u64> {
+    let (js, bin_len) = layout(meshes, objects);
+    let total = 12 + 8 + js.len() + 8 + bin_len;
+    let too_big = || {
+        std::io::Error::other(format!(
+            "scene of {total} bytes exceeds the GLB limit of 4 GiB"
+        ))
+    };
+    let total32 = u32::try_from(total).map_err(|_| too_big())?;
+    w.write_all(b"glTF")?;
+    w.write_all(&2u32.to_le_bytes())?;
+    w.write_all(&total32.to_le_bytes())?;
+    w.write_all(&(js.len() as u32).to_le_bytes())?;
+    w.write_all(b"JSON")?;
+    w.write_all(&js)?;
+    w.write_all(&(bin_len as u32).to_le_bytes())?;
+    w.write_all(b"BIN\0")?;
+    let mut result = Ok(());
+    let mut put = |w: &mut W, bytes: &[u8]| {
+        if result.is_ok() {
+            result = w
+                .write_all(bytes)
+                .and_then(|()| w.write_all(&[0u8; 3][..pad4(bytes.len()) - bytes.len()]));
+        }
+    };
+    for mesh in meshes {
+        for_each_part(mesh, |_, part| {
+            put(w, bytemuck::cast_slice(&part.positions));
+            put(w, bytemuck::cast_slice(&part.normals));
+            put(w, bytemuck::cast_slice(&part.indices));
+        });
+    }
+    result?;
+    Ok(total as u64)
+}
+
+/// Serialises meshes and objects to GLB bytes in memory.
+pub fn to_glb(meshes: &[Mesh], objects: &[GlbObject]) -> std::io::Result<Vec<u8>> {
+    let mut out = Vec::new();
+    write_glb_to(&mut out, meshes, objects)?;
+    Ok(out)
 }
 
 /// Writes a GLB atomically (temporary file in the same directory, then rename).
 pub fn write_glb(path: &Path, meshes: &[Mesh], objects: &[GlbObject]) -> std::io::Result<u64> {
-    let bytes = to_glb(meshes, objects);
-    if bytes.len() > u32::MAX as usize {
-        return Err(std::io::Error::other(format!(
-            "scene of {} bytes exceeds the GLB limit of 4 GiB",
-            bytes.len()
-        )));
-    }
-    write_atomically(path, &bytes)?;
-    Ok(bytes.len() as u64)
+    write_atomically(path, |w| write_glb_to(w, meshes, objects))
 }
 
-/// Writes `bytes` to `path` through a temporary file and a rename.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+/// Writes a file through a temporary file beside it and a rename, so that the
+/// target either appears complete or not at all. The file gets mode 0644.
+pub fn write_atomically<T>(
+    path: &Path,
+    fill: impl FnOnce(&mut BufWriter<&File>) -> std::io::Result<T>,
+) -> std::io::Result<T> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::Builder::new()
+    let tmp = tempfile::Builder::new()
         .prefix(".hlod-gen-")
         .suffix(".tmp")
         .tempfile_in(dir)?;
-    tmp.write_all(bytes)?;
+    let mut w = BufWriter::with_capacity(1 << 20, tmp.as_file());
+    let out = fill(&mut w)?;
+    w.flush()?;
+    drop(w);
+    set_public_mode(tmp.as_file())?;
     tmp.as_file().sync_all()?;
     tmp.persist(path).map_err(|e| e.error)?;
+    Ok(out)
+}
+
+/// Gives a finished output file the usual 0644 mode (temporary files are 0600).
+pub fn set_public_mode(file: &File) -> std::io::Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        file.set_permissions(std::fs::Permissions::from_mode(0o644))?;
+    }
+    #[cfg(not(unix))]
+    let _ = file;
     Ok(())
 }
