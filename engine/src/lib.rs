@@ -23,7 +23,9 @@
 //! Nothing on the format path depends on a GPU API: the renderer, when present,
 //! is the only module that touches wgpu.
 
+pub mod camera;
 pub mod format;
+pub mod front;
 pub mod io;
 pub mod skeleton;
 

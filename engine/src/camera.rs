@@ -1,0 +1,431 @@
+//! Camera poses, views, frustum culling, projected error, and camera paths.
+//!
+//! World space is right-handed with +Y up (glTF's convention); a camera looks
+//! along its local -Z. A **path file** is plain text, one pose per line:
+//!
+//! ```text
+//! # hlod camera path v1
+//! # x y z qx qy qz qw fov_y_deg
+//! 12.5 1.7 -3.0 0 0.3826834 0 0.9238795 60
+//! ```
+//!
+//! `#` starts a comment; blank lines are ignored; the orientation quaternion is
+//! the rotation from camera to world space (normalised on read).
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use glam::{EulerRot, Quat, Vec3};
+
+/// One camera pose.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    pub position: Vec3,
+    /// Camera-to-world rotation; the camera looks along `rotation * -Z`.
+    pub rotation: Quat,
+    /// Vertical field of view in degrees.
+    pub fov_y_deg: f32,
+}
+
+impl Pose {
+    /// A pose at `eye` looking towards `target`.
+    pub fn look_at(eye: Vec3, target: Vec3, fov_y_deg: f32) -> Self {
+        let d = (target - eye).normalize_or(Vec3::NEG_Z);
+        Self::from_yaw_pitch(eye, yaw_of(d), d.y.clamp(-1.0, 1.0).asin(), fov_y_deg)
+    }
+
+    /// A pose from heading (about +Y, 0 looks along -Z) and pitch, in radians.
+    pub fn from_yaw_pitch(eye: Vec3, yaw: f32, pitch: f32, fov_y_deg: f32) -> Self {
+        Self {
+            position: eye,
+            rotation: Quat::from_euler(EulerRot::YXZ, yaw, pitch, 0.0),
+            fov_y_deg,
+        }
+    }
+
+    /// Unit view direction.
+    pub fn forward(&self) -> Vec3 {
+        self.rotation * Vec3::NEG_Z
+    }
+
+    /// Angle in radians between this pose's view direction and `other`'s.
+    pub fn angle_to(&self, other: &Pose) -> f32 {
+        self.forward().dot(other.forward()).clamp(-1.0, 1.0).acos()
+    }
+}
+
+fn yaw_of(d: Vec3) -> f32 {
+    (-d.x).atan2(-d.z)
+}
+
+/// A pose on a viewport: what the front is computed for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View {
+    pub pose: Pose,
+    pub width_px: u32,
+    pub height_px: u32,
+    pub near: f32,
+    pub far: f32,
+}
+
+impl View {
+    /// Pixels per unit of object-space error at distance 1: `H / (2 tan(fov/2))`.
+    pub fn pixels_per_radian(&self) -> f32 {
+        self.height_px as f32 / (2.0 * (0.5 * self.pose.fov_y_deg.to_radians()).tan())
+    }
+
+    /// Projected screen-space size in pixels of an error `e` at distance `dist`.
+    pub fn projected(&self, e: f32, dist: f32) -> f32 {
+        e * self.pixels_per_radian() / dist.max(self.near)
+    }
+
+    /// Width / height.
+    pub fn aspect(&self) -> f32 {
+        self.width_px as f32 / self.height_px.max(1) as f32
+    }
+
+    /// The view frustum, its half-angles widened by `margin_rad`.
+    pub fn frustum(&self, margin_rad: f32) -> Frustum {
+        let half_y = (0.5 * self.pose.fov_y_deg.to_radians() + margin_rad).min(1.55);
+        let tan_y = half_y.tan();
+        let tan_x =
+            ((0.5 * self.pose.fov_y_deg.to_radians()).tan() * self.aspect()).atan() + margin_rad;
+        let tan_x = tan_x.min(1.55).tan();
+        let r = self.pose.rotation;
+        let (right, up, fwd) = (r * Vec3::X, r * Vec3::Y, r * Vec3::NEG_Z);
+        let eye = self.pose.position;
+        // Inward normals of the four side planes through the eye.
+        // Directions of the four edges at the half-angles.
+        let sides = [
+            (fwd + right * tan_x).normalize(),
+            (fwd - right * tan_x).normalize(),
+            (fwd + up * tan_y).normalize(),
+            (fwd - up * tan_y).normalize(),
+        ];
+        let mut planes = [(Vec3::ZERO, 0.0); 6];
+        for (k, s) in sides.iter().enumerate() {
+            // The plane holds the edge and the other screen axis; its normal faces inwards.
+            let axis = if k < 2 { up } else { right };
+            let mut n = s.cross(axis).normalize();
+            if n.dot(fwd) < 0.0 {
+                n = -n;
+            }
+            planes[k] = (n, -n.dot(eye));
+        }
+        planes[4] = (fwd, -fwd.dot(eye + fwd * self.near));
+        planes[5] = (-fwd, fwd.dot(eye + fwd * self.far));
+        Frustum {
+            planes,
+            eye,
+            forward: fwd,
+            half_angle: half_y.max(tan_x.atan()),
+        }
+    }
+}
+
+/// Six inward-facing planes `n . p + d >= 0`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frustum {
+    pub planes: [(Vec3, f32); 6],
+    pub eye: Vec3,
+    pub forward: Vec3,
+    /// The larger of the horizontal and vertical half-angles.
+    pub half_angle: f32,
+}
+
+impl Frustum {
+    /// Whether the box may intersect the frustum (conservative).
+    #[inline]
+    pub fn intersects(&self, min: Vec3, max: Vec3) -> bool {
+        self.planes.iter().all(|(n, d)| {
+            let p = Vec3::select(n.cmpge(Vec3::ZERO), max, min);
+            n.dot(p) + d >= 0.0
+        })
+    }
+
+    /// Angle between the line of sight and the direction to the box's centre.
+    pub fn angle_to_box(&self, min: Vec3, max: Vec3) -> f32 {
+        let c = (min + max) * 0.5 - self.eye;
+        let len = c.length();
+        if len <= 1e-6 {
+            return 0.0;
+        }
+        (c.dot(self.forward) / len).clamp(-1.0, 1.0).acos()
+    }
+}
+
+/// Distance from `p` to the box (0 inside).
+#[inline]
+pub fn box_distance(p: Vec3, min: Vec3, max: Vec3) -> f32 {
+    (min - p).max(p - max).max(Vec3::ZERO).length()
+}
+
+/// Why a path file could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum PathError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}:{line}: {what}")]
+    Syntax {
+        path: String,
+        line: usize,
+        what: String,
+    },
+    #[error("{path}: the path has no poses")]
+    Empty { path: String },
+}
+
+/// Parses a path file's text; `name` is used in errors.
+pub fn parse_path(text: &str, name: &str) -> Result<Vec<Pose>, PathError> {
+    let mut out = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let err = |what: String| PathError::Syntax {
+            path: name.to_string(),
+            line: i + 1,
+            what,
+        };
+        let vals: Vec<f32> = line
+            .split_whitespace()
+            .map(|t| {
+                t.parse::<f32>()
+                    .map_err(|_| err(format!("{t:?} is not a number")))
+            })
+            .collect::<Result<_, _>>()?;
+        if vals.len() != 8 {
+            return Err(err(format!(
+                "expected 8 numbers (x y z qx qy qz qw fov), found {}",
+                vals.len()
+            )));
+        }
+        if vals.iter().any(|v| !v.is_finite()) {
+            return Err(err("non-finite value".into()));
+        }
+        let q = Quat::from_xyzw(vals[3], vals[4], vals[5], vals[6]);
+        if q.length() < 1e-3 {
+            return Err(err("zero orientation quaternion".into()));
+        }
+        if !(vals[7] > 1.0 && vals[7] < 179.0) {
+            return Err(err(format!(
+                "field of view {} outside (1, 179) degrees",
+                vals[7]
+            )));
+        }
+        out.push(Pose {
+            position: Vec3::new(vals[0], vals[1], vals[2]),
+            rotation: q.normalize(),
+            fov_y_deg: vals[7],
+        });
+    }
+    if out.is_empty() {
+        return Err(PathError::Empty {
+            path: name.to_string(),
+        });
+    }
+    Ok(out)
+}
+
+/// Reads a path file.
+pub fn read_path(path: &Path) -> Result<Vec<Pose>, PathError> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| PathError::Io {
+        path: name.clone(),
+        source,
+    })?;
+    parse_path(&text, &name)
+}
+
+/// Serialises poses in the path format.
+pub fn format_path(poses: &[Pose]) -> String {
+    let mut s = String::from("# hlod camera path v1\n# x y z qx qy qz qw fov_y_deg\n");
+    for p in poses {
+        let (t, q) = (p.position, p.rotation);
+        let _ = writeln!(
+            s,
+            "{} {} {} {} {} {} {} {}",
+            t.x, t.y, t.z, q.x, q.y, q.z, q.w, p.fov_y_deg
+        );
+    }
+    s
+}
+
+/// Standard generated paths over a scene's bounds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PathKind {
+    /// Walk through the scene at eye height with fast pans and sudden turns.
+    Flythrough,
+    /// Far-to-near approach towards the centre.
+    Approach,
+    /// Orbit around the centre.
+    Orbit,
+}
+
+/// Generates a path of `frames` poses over the box `min..max` (deterministic).
+pub fn generate_path(kind: PathKind, min: Vec3, max: Vec3, frames: usize) -> Vec<Pose> {
+    let c = (min + max) * 0.5;
+    let e = (max - min).max(Vec3::splat(1e-3));
+    let radius = e.length() * 0.5;
+    let n = frames.max(2);
+    let fov = 60.0;
+    match kind {
+        PathKind::Orbit => (0..n)
+            .map(|i| {
+                let a = std::f32::consts::TAU * i as f32 / n as f32;
+                let eye = c + Vec3::new(a.cos() * radius * 1.3, e.y * 0.6, a.sin() * radius * 1.3);
+                Pose::look_at(eye, c, fov)
+            })
+            .collect(),
+        PathKind::Approach => (0..n)
+            .map(|i| {
+                let t = i as f32 / (n - 1) as f32;
+                let far = c + Vec3::new(-1.0, 0.6, -1.0).normalize() * radius * 3.0;
+                let near = c + Vec3::new(-0.05, 0.02, -0.05) * radius;
+                let eye = far.lerp(near, 1.0 - (1.0 - t) * (1.0 - t));
+                Pose::look_at(eye, c, fov)
+            })
+            .collect(),
+        PathKind::Flythrough => flythrough(min, e, n, fov),
+    }
+}
+
+/// A closed route through the scene at about a third of its height: straight
+/// walks with smooth heading changes, fast pans to the side every ~4 s, and a
+/// sudden about-turn every ~7 s (at 30 frames per second).
+fn flythrough(min: Vec3, e: Vec3, n: usize, fov: f32) -> Vec<Pose> {
+    let height = min.y + e.y * 0.35;
+    let route = |t: f32| {
+        // A Lissajous-like loop across the footprint.
+        let a = std::f32::consts::TAU * t;
+        Vec3::new(
+            min.x + e.x * (0.5 + 0.38 * a.sin()),
+            height,
+            min.z + e.z * (0.5 + 0.38 * (2.0 * a).sin()),
+        )
+    };
+    (0..n)
+        .map(|i| {
+            let t = i as f32 / n as f32;
+            let eye = route(t);
+            let ahead = route(t + 0.002) - eye;
+            let mut yaw = yaw_of(ahead.normalize_or(Vec3::NEG_Z));
+            let mut pitch = -0.15;
+            // Fast pan: 20 frames swinging up to 80 degrees to one side and back.
+            let k = i % 120;
+            if (60..80).contains(&k) {
+                let s = ((k - 60) as f32 / 20.0 * std::f32::consts::PI).sin();
+                yaw += s * 1.4 * if (i / 120) % 2 == 0 { 1.0 } else { -1.0 };
+                pitch += s * 0.2;
+            }
+            // Sudden turn: look back for 30 frames, switched within 3 frames.
+            let j = i % 210;
+            if (150..180).contains(&j) {
+                let ramp = ((j - 150) as f32 / 3.0)
+                    .min(1.0)
+                    .min((180 - j) as f32 / 3.0);
+                yaw += std::f32::consts::PI * ramp;
+            }
+            Pose::from_yaw_pitch(eye, yaw, pitch, fov)
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn view(pose: Pose) -> View {
+        View {
+            pose,
+            width_px: 1280,
+            height_px: 720,
+            near: 0.1,
+            far: 1000.0,
+        }
+    }
+
+    #[test]
+    fn frustum_keeps_what_is_ahead_and_culls_behind_and_beside() {
+        let v = view(Pose::look_at(Vec3::ZERO, Vec3::NEG_Z, 60.0));
+        let f = v.frustum(0.0);
+        let unit = |c: Vec3| (c - Vec3::splat(0.5), c + Vec3::splat(0.5));
+        let (a, b) = unit(Vec3::new(0.0, 0.0, -10.0));
+        assert!(f.intersects(a, b));
+        let (a, b) = unit(Vec3::new(0.0, 0.0, 10.0));
+        assert!(!f.intersects(a, b));
+        let (a, b) = unit(Vec3::new(30.0, 0.0, -10.0));
+        assert!(!f.intersects(a, b), "far to the right");
+        let (a, b) = unit(Vec3::new(0.0, 9.0, -10.0));
+        assert!(!f.intersects(a, b), "above the 30-degree half-angle");
+        let (a, b) = unit(Vec3::new(0.0, 0.0, -2000.0));
+        assert!(!f.intersects(a, b), "past the far plane");
+        // Widening by 30 degrees brings the box above into view.
+        let (a, b) = unit(Vec3::new(0.0, 9.0, -10.0));
+        assert!(v.frustum(30f32.to_radians()).intersects(a, b));
+        assert!((f.angle_to_box(a, b) - (9.0f32 / 10.0).atan()).abs() < 1e-4);
+    }
+
+    #[test]
+    fn projected_error_scales_with_distance_and_viewport() {
+        let v = view(Pose::look_at(Vec3::ZERO, Vec3::NEG_Z, 90.0));
+        // fov 90: tan(45) = 1, so 1 unit at distance 1 spans half the height.
+        assert!((v.projected(1.0, 1.0) - 360.0).abs() < 1e-3);
+        assert!((v.projected(1.0, 10.0) - 36.0).abs() < 1e-3);
+        assert_eq!(v.projected(1.0, 0.0), v.projected(1.0, 0.1));
+        assert_eq!(
+            box_distance(Vec3::ZERO, Vec3::ONE, Vec3::splat(2.0)),
+            3f32.sqrt()
+        );
+        assert_eq!(
+            box_distance(Vec3::splat(1.5), Vec3::ONE, Vec3::splat(2.0)),
+            0.0
+        );
+    }
+
+    #[test]
+    fn path_format_round_trips_and_reports_line_numbers() {
+        let poses = generate_path(PathKind::Flythrough, Vec3::ZERO, Vec3::splat(100.0), 300);
+        let back = parse_path(&format_path(&poses), "p").unwrap();
+        assert_eq!(back.len(), 300);
+        for (a, b) in poses.iter().zip(&back) {
+            assert!(a.position.distance(b.position) < 1e-4);
+            assert!(a.angle_to(b) < 1e-3);
+        }
+        let bad = "# c\n1 2 3 0 0 0 1 60\n\n1 2 x 0 0 0 1 60\n";
+        let e = parse_path(bad, "p.txt").unwrap_err().to_string();
+        assert!(e.starts_with("p.txt:4:"), "{e}");
+        assert!(parse_path("1 2 NaN 0 0 0 1 60", "p").is_err());
+        assert!(parse_path("1 2 3 0 0 0 0 60", "p").is_err());
+        assert!(parse_path("1 2 3 0 0 0 1 60 7", "p").is_err());
+        assert!(parse_path("1 2 3 0 0 0 1 0", "p").is_err());
+        assert!(matches!(
+            parse_path("# nothing\n", "p"),
+            Err(PathError::Empty { .. })
+        ));
+    }
+
+    #[test]
+    fn flythrough_has_fast_pans_and_sudden_turns() {
+        let poses = generate_path(
+            PathKind::Flythrough,
+            Vec3::ZERO,
+            Vec3::new(100.0, 20.0, 100.0),
+            600,
+        );
+        let max_step = poses
+            .windows(2)
+            .map(|w| w[0].angle_to(&w[1]))
+            .fold(0.0, f32::max);
+        assert!(max_step > 0.8, "largest per-frame turn {max_step} rad");
+        let approach = generate_path(PathKind::Approach, Vec3::ZERO, Vec3::splat(10.0), 50);
+        assert!(
+            approach[0].position.distance(Vec3::splat(5.0))
+                > approach[49].position.distance(Vec3::splat(5.0))
+        );
+    }
+}
