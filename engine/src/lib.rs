@@ -23,10 +23,12 @@
 //! Nothing on the format path depends on a GPU API: the renderer, when present,
 //! is the only module that touches wgpu.
 
+pub mod cache;
 pub mod camera;
 pub mod format;
 pub mod front;
 pub mod io;
+pub mod prefetch;
 pub mod skeleton;
 
 #[cfg(test)]
