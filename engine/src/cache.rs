@@ -188,7 +188,10 @@ mod tests {
             l.access(r);
         }
         let order: Vec<_> = l.iter_from_head().collect();
-        assert_eq!(order, vec![(2, true), (0, true), (4, false), (1, false), (3, false)]);
+        assert_eq!(
+            order,
+            vec![(2, true), (0, true), (4, false), (1, false), (3, false)]
+        );
         assert_eq!(l.len(), 5);
         l.remove(0);
         l.remove(0);

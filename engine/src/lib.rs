@@ -25,10 +25,14 @@
 
 pub mod cache;
 pub mod camera;
+pub mod disk;
 pub mod format;
 pub mod front;
 pub mod io;
+pub mod metrics;
 pub mod prefetch;
+pub mod render;
+pub mod runtime;
 pub mod skeleton;
 
 #[cfg(test)]

@@ -21,7 +21,11 @@ pub fn ang_pr(theta: f32, theta0: f32, theta1: f32) -> f32 {
 /// The integrated priority value of a rep with projected error `eps` (pixels)
 /// under tolerance `tol`.
 pub fn priority(eps: f32, tol: f32, angpr: f32) -> f32 {
-    if eps < tol { eps * angpr } else { eps / angpr.max(1e-6) }
+    if eps < tol {
+        eps * angpr
+    } else {
+        eps / angpr.max(1e-6)
+    }
 }
 
 /// B bins over `[0, δ]` with the service order around ε.

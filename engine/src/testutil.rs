@@ -86,7 +86,7 @@ pub fn build(rep_counts: &[u32], children: &[u32]) -> (Vec<u8>, Skeleton) {
                 node: i as u32,
                 index: r as u16,
                 kind: kind as u16,
-                error: 1e6 * 0.5f32.powi((nodes[i].depth * 4 + r) as i32),
+                error: 10.0 * 0.5f32.powi((nodes[i].depth * 4 + r) as i32),
                 checksum: loc.checksum,
                 offset: loc.offset,
                 len: loc.len,

@@ -19,7 +19,7 @@ mod reader;
 mod rep;
 mod writer;
 
-pub use reader::{SceneFile, SceneMeta};
+pub use reader::{SceneFile, SceneMeta, check_rep_crc};
 pub use rep::{PackedVertex, RepHeader, RepMesh, quantize_unit_normal};
 pub use writer::SceneWriter;
 

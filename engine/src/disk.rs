@@ -1,0 +1,199 @@
+//! Disk models behind [`ByteSource`]: the real file (optionally with its page
+//! cache dropped first) or a throttled device with a seek latency and a
+//! bandwidth, so that the papers' slow-disk regime can be reproduced here.
+
+use std::io;
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use crate::io::ByteSource;
+
+/// A device model: a seek costs `latency` (reads that continue where the
+/// previous one ended do not seek), every byte `1 / bytes_per_sec`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiskModel {
+    pub latency: Duration,
+    pub bytes_per_sec: f64,
+}
+
+impl DiskModel {
+    /// A 2002-era disk as in the papers: 10 ms seeks, 30 MB/s.
+    pub const HDD: Self = Self {
+        latency: Duration::from_millis(10),
+        bytes_per_sec: 30e6,
+    };
+    /// A SATA SSD: 0.1 ms, 500 MB/s.
+    pub const SSD: Self = Self {
+        latency: Duration::from_micros(100),
+        bytes_per_sec: 500e6,
+    };
+    /// An NVMe drive: 20 µs, 3 GB/s.
+    pub const NVME: Self = Self {
+        latency: Duration::from_micros(20),
+        bytes_per_sec: 3e9,
+    };
+
+    /// A preset by name (`hdd`, `ssd`, `nvme`) or `LATENCY_MS:MB_PER_S`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "hdd" => Ok(Self::HDD),
+            "ssd" => Ok(Self::SSD),
+            "nvme" => Ok(Self::NVME),
+            _ => {
+                let (l, b) = s.split_once(':').ok_or_else(|| {
+                    format!(
+                        "unknown disk model {s:?}: use file, hdd, ssd, nvme or LATENCY_MS:MB_PER_S"
+                    )
+                })?;
+                let l: f64 = l.parse().map_err(|_| format!("bad latency in {s:?}"))?;
+                let b: f64 = b.parse().map_err(|_| format!("bad bandwidth in {s:?}"))?;
+                if !(l.is_finite() && l >= 0.0 && l < 10_000.0 && b.is_finite() && b > 0.0) {
+                    return Err(format!("disk model {s:?} out of range"));
+                }
+                Ok(Self {
+                    latency: Duration::from_secs_f64(l / 1000.0),
+                    bytes_per_sec: b * 1e6,
+                })
+            }
+        }
+    }
+
+    /// Model time of a read of `len` bytes, with or without a seek.
+    pub fn cost(&self, len: usize, seek: bool) -> Duration {
+        let transfer = Duration::from_secs_f64(len as f64 / self.bytes_per_sec);
+        if seek {
+            self.latency + transfer
+        } else {
+            transfer
+        }
+    }
+}
+
+/// A source whose reads take the time the model says (sleeping out the rest).
+#[derive(Debug)]
+pub struct ThrottledSource<S> {
+    inner: S,
+    model: DiskModel,
+    last_end: Mutex<Option<u64>>,
+}
+
+impl<S: ByteSource> ThrottledSource<S> {
+    /// Wraps `inner` in `model`.
+    pub fn new(inner: S, model: DiskModel) -> Self {
+        Self {
+            inner,
+            model,
+            last_end: Mutex::new(None),
+        }
+    }
+}
+
+impl<S: ByteSource> ByteSource for ThrottledSource<S> {
+    fn len(&self) -> u64 {
+        self.inner.len()
+    }
+
+    fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
+        let start = Instant::now();
+        let seek = {
+            let mut last = self.last_end.lock().unwrap_or_else(|e| e.into_inner());
+            let seek = *last != Some(offset);
+            *last = Some(offset + buf.len() as u64);
+            seek
+        };
+        self.inner.read_at(offset, buf)?;
+        let due = self.model.cost(buf.len(), seek);
+        if let Some(rest) = due.checked_sub(start.elapsed()) {
+            std::thread::sleep(rest);
+        }
+        Ok(())
+    }
+}
+
+/// A source that fails reads touching `bad` byte ranges (fault injection).
+#[derive(Debug)]
+pub struct FaultySource<S> {
+    inner: S,
+    bad: Vec<(u64, u64)>,
+}
+
+impl<S: ByteSource> FaultySource<S> {
+    /// Reads overlapping any `start..end` in `bad` fail with an I/O error.
+    pub fn new(inner: S, bad: Vec<(u64, u64)>) -> Self {
+        Self { inner, bad }
+    }
+}
+
+impl<S: ByteSource> ByteSource for FaultySource<S> {
+    fn len(&self) -> u64 {
+        self.inner.len()
+    }
+
+    fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
+        let end = offset + buf.len() as u64;
+        if self.bad.iter().any(|&(s, e)| offset < e && s < end) {
+            return Err(io::Error::other(format!(
+                "injected read error at {offset}+{}",
+                buf.len()
+            )));
+        }
+        self.inner.read_at(offset, buf)
+    }
+}
+
+/// Asks the OS to drop the file's pages from the page cache (Linux); returns
+/// whether it was done.
+pub fn drop_page_cache(file: &std::fs::File) -> bool {
+    #[cfg(target_os = "linux")]
+    {
+        rustix::fs::fadvise(file, 0, None, rustix::fs::Advice::DontNeed).is_ok()
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = file;
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::MemSource;
+
+    #[test]
+    fn throttled_reads_take_model_time_and_sequential_reads_skip_the_seek() {
+        let m = DiskModel {
+            latency: Duration::from_millis(20),
+            bytes_per_sec: 1e6,
+        };
+        let src = ThrottledSource::new(MemSource::new(vec![7u8; 100_000]), m);
+        let mut buf = vec![0u8; 10_000];
+        let t = Instant::now();
+        src.read_at(0, &mut buf).unwrap(); // seek + 10 ms
+        src.read_at(10_000, &mut buf).unwrap(); // sequential: 10 ms
+        let took = t.elapsed();
+        assert!(took >= Duration::from_millis(40), "{took:?}");
+        assert!(buf.iter().all(|&b| b == 7));
+        assert_eq!(m.cost(10_000, true), Duration::from_millis(30));
+    }
+
+    #[test]
+    fn parse_presets_and_custom_models() {
+        assert_eq!(DiskModel::parse("hdd").unwrap(), DiskModel::HDD);
+        let c = DiskModel::parse("5:100").unwrap();
+        assert_eq!(c.latency, Duration::from_millis(5));
+        assert_eq!(c.bytes_per_sec, 100e6);
+        for bad in ["floppy", "5", "x:1", "1:0", "-1:5", "1:NaN"] {
+            assert!(DiskModel::parse(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn faulty_source_fails_only_its_ranges() {
+        let src = FaultySource::new(MemSource::new(vec![0u8; 100]), vec![(40, 50)]);
+        let mut b = [0u8; 10];
+        assert!(src.read_at(0, &mut b).is_ok());
+        assert!(src.read_at(35, &mut b).is_err());
+        assert!(src.read_at(50, &mut b).is_ok());
+    }
+}

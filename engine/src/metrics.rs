@@ -1,0 +1,187 @@
+//! Per-frame metrics, their CSV form and the per-run summary.
+
+use std::fmt::Write as _;
+
+/// What one frame did. `stage2_bytes` were fetched on demand while P_R
+/// waited to render; `prefetch_bytes` were loaded by P_I since the previous
+/// frame's Stage II ended (Stages III and I).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameMetrics {
+    pub frame: u32,
+    pub mode: &'static str,
+    pub frame_ms: f64,
+    pub front_ms: f64,
+    pub wait_ms: f64,
+    pub front_reps: u32,
+    pub front_tris: u64,
+    pub front_bytes: u64,
+    pub missing_reps: u32,
+    pub stage2_bytes: u64,
+    pub prefetch_bytes: u64,
+    pub resident_bytes: u64,
+    /// The largest resident footprint at any moment since the previous frame.
+    pub max_resident_bytes: u64,
+    pub budget_bytes: u64,
+    pub evictions: u32,
+    /// Front reps drawn as a resident ancestor.
+    pub substituted: u32,
+    /// Front reps drawn as themselves.
+    pub drawn_reps: u32,
+    pub drawn_tris: u64,
+    pub read_errors: u32,
+    pub nodes_visited: u32,
+}
+
+/// CSV header matching [`FrameMetrics::csv_row`].
+pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited";
+
+impl FrameMetrics {
+    /// One CSV line (no newline).
+    pub fn csv_row(&self) -> String {
+        format!(
+            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            self.frame,
+            self.mode,
+            self.frame_ms,
+            self.front_ms,
+            self.wait_ms,
+            self.front_reps,
+            self.front_tris,
+            self.front_bytes,
+            self.missing_reps,
+            self.stage2_bytes,
+            self.prefetch_bytes,
+            self.resident_bytes,
+            self.max_resident_bytes,
+            self.budget_bytes,
+            self.evictions,
+            self.substituted,
+            self.drawn_reps,
+            self.drawn_tris,
+            self.read_errors,
+            self.nodes_visited
+        )
+    }
+}
+
+/// The whole CSV of a run.
+pub fn to_csv(frames: &[FrameMetrics]) -> String {
+    let mut s = String::from(CSV_HEADER);
+    s.push('\n');
+    for f in frames {
+        s.push_str(&f.csv_row());
+        s.push('\n');
+    }
+    s
+}
+
+/// Summary of one run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Summary {
+    pub mode: &'static str,
+    pub frames: usize,
+    pub mean_ms: f64,
+    pub median_ms: f64,
+    pub p99_ms: f64,
+    pub max_ms: f64,
+    pub over_period: usize,
+    pub stage2_bytes: u64,
+    pub prefetch_bytes: u64,
+    pub max_resident_bytes: u64,
+    pub budget_bytes: u64,
+    pub substituted: u64,
+    pub mean_front_ms: f64,
+}
+
+/// `q`-quantile (0..=1) of `v` by the nearest-rank method.
+pub fn quantile(v: &[f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let rank = ((q * s.len() as f64).ceil() as usize).clamp(1, s.len());
+    s[rank - 1]
+}
+
+/// Summarises frames against the frame period `period_ms`.
+pub fn summarize(frames: &[FrameMetrics], period_ms: f64) -> Summary {
+    let t: Vec<f64> = frames.iter().map(|f| f.frame_ms).collect();
+    let n = t.len().max(1) as f64;
+    Summary {
+        mode: frames.first().map_or("", |f| f.mode),
+        frames: frames.len(),
+        mean_ms: t.iter().sum::<f64>() / n,
+        median_ms: quantile(&t, 0.5),
+        p99_ms: quantile(&t, 0.99),
+        max_ms: t.iter().copied().fold(0.0, f64::max),
+        over_period: t.iter().filter(|&&x| x > period_ms).count(),
+        stage2_bytes: frames.iter().map(|f| f.stage2_bytes).sum(),
+        prefetch_bytes: frames.iter().map(|f| f.prefetch_bytes).sum(),
+        max_resident_bytes: frames
+            .iter()
+            .map(|f| f.max_resident_bytes)
+            .max()
+            .unwrap_or(0),
+        budget_bytes: frames.first().map_or(0, |f| f.budget_bytes),
+        substituted: frames.iter().map(|f| u64::from(f.substituted)).sum(),
+        mean_front_ms: frames.iter().map(|f| f.front_ms).sum::<f64>() / n,
+    }
+}
+
+/// A Markdown table of summaries.
+pub fn summary_table(rows: &[Summary]) -> String {
+    let mut s = String::from(
+        "| mode | frames | mean ms | median ms | p99 ms | max ms | over period | Stage II MiB | prefetch MiB | max resident MiB | budget MiB | substituted | front ms |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.3} |",
+            r.mode,
+            r.frames,
+            r.mean_ms,
+            r.median_ms,
+            r.p99_ms,
+            r.max_ms,
+            r.over_period,
+            mib(r.stage2_bytes),
+            mib(r.prefetch_bytes),
+            mib(r.max_resident_bytes),
+            mib(r.budget_bytes),
+            r.substituted,
+            r.mean_front_ms
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_and_csv_shape() {
+        let v: Vec<f64> = (1..=100).map(f64::from).collect();
+        assert_eq!(quantile(&v, 0.5), 50.0);
+        assert_eq!(quantile(&v, 0.99), 99.0);
+        assert_eq!(quantile(&v, 1.0), 100.0);
+        let f = FrameMetrics {
+            mode: "pre",
+            frame_ms: 40.0,
+            ..Default::default()
+        };
+        let csv = to_csv(&[f.clone(), f]);
+        let cols = CSV_HEADER.split(',').count();
+        assert!(csv.lines().all(|l| l.split(',').count() == cols));
+        let s = summarize(
+            &[FrameMetrics {
+                frame_ms: 40.0,
+                ..Default::default()
+            }],
+            33.3,
+        );
+        assert_eq!(s.over_period, 1);
+    }
+}

@@ -1,0 +1,412 @@
+//! P_I: the resident set, fetching (Stage II) and prefetching (Stages III, I).
+
+use std::sync::Arc;
+
+use crossbeam_channel::{Receiver, Sender, TryRecvError};
+
+use super::{Cmd, Mode, Reply, RuntimeError, RuntimeParams, StageStats};
+use crate::cache::InMemoryList;
+use crate::camera::View;
+use crate::format::check_rep_crc;
+use crate::front::FrontIndex;
+use crate::io::ByteSource;
+use crate::prefetch::{Bins, ang_pr, priority};
+use crate::skeleton::{RepId, Skeleton};
+
+/// Why a rep was not loaded.
+enum LoadError {
+    /// The budget cannot make room without evicting reps that must stay.
+    NoRoom,
+    /// Read or checksum failure (logged once; the rep is not tried again).
+    Failed,
+    /// A new fetch command arrived during a prefetch read.
+    Preempted,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Purpose {
+    Demand,
+    Prefetch,
+}
+
+pub(super) struct Loader {
+    skeleton: Arc<Skeleton>,
+    index: Arc<FrontIndex>,
+    source: Arc<dyn ByteSource>,
+    params: RuntimeParams,
+    cmds: Receiver<Cmd>,
+    replies: Sender<Reply>,
+    pending: Option<Cmd>,
+    list: InMemoryList,
+    data: Vec<Option<Arc<[u8]>>>,
+    failed: Vec<bool>,
+    /// A rep is pinned (P_R renders it this frame) when its stamp is `pin_gen`.
+    pinned: Vec<u32>,
+    pin_gen: u32,
+    /// The root's coarsest rep: never evicted in the out-of-core modes.
+    keep: Option<RepId>,
+    resident: u64,
+    stats: StageStats,
+    bins: Bins,
+    classified: Vec<u32>,
+    class_gen: u32,
+    class_view: Option<View>,
+    theta0: f32,
+    theta1: f32,
+    /// F_R of the classified view (for the angle of each rep).
+    class_frustum: Option<crate::camera::Frustum>,
+    scratch: Vec<RepId>,
+}
+
+impl Loader {
+    pub(super) fn new(
+        skeleton: Arc<Skeleton>,
+        index: Arc<FrontIndex>,
+        source: Arc<dyn ByteSource>,
+        params: RuntimeParams,
+        cmds: Receiver<Cmd>,
+        replies: Sender<Reply>,
+    ) -> Self {
+        let n = skeleton.reps.len();
+        Self {
+            bins: Bins::new(params.prefetch.bins, params.delta(), params.tolerance_px),
+            skeleton,
+            index,
+            source,
+            params,
+            cmds,
+            replies,
+            pending: None,
+            list: InMemoryList::new(n),
+            data: vec![None; n],
+            failed: vec![false; n],
+            pinned: vec![0; n],
+            pin_gen: 1,
+            keep: None,
+            resident: 0,
+            stats: StageStats::default(),
+            classified: vec![0; n],
+            class_gen: 0,
+            class_view: None,
+            theta0: 0.0,
+            theta1: 1.0,
+            class_frustum: None,
+            scratch: Vec::new(),
+        }
+    }
+
+    /// The thread body: start-up, then commands until shutdown.
+    pub(super) fn run(mut self, ready: Sender<Result<(), RuntimeError>>) {
+        let started = self.start_up();
+        let ok = started.is_ok();
+        let _ = ready.send(started);
+        if !ok {
+            return;
+        }
+        loop {
+            let cmd = if let Some(c) = self.pending.take() {
+                c
+            } else if self.params.mode == Mode::Pre && !self.bins.is_empty() {
+                match self.cmds.try_recv() {
+                    Ok(c) => c,
+                    Err(TryRecvError::Empty) => {
+                        self.prefetch_step();
+                        continue;
+                    }
+                    Err(TryRecvError::Disconnected) => return,
+                }
+            } else {
+                match self.cmds.recv() {
+                    Ok(c) => c,
+                    Err(_) => return,
+                }
+            };
+            match cmd {
+                Cmd::Fetch {
+                    view,
+                    turn_rad,
+                    front,
+                } => {
+                    if self.fetch(&front).is_err() {
+                        return;
+                    }
+                    if self.params.mode == Mode::Pre {
+                        self.classify_front(&view, turn_rad);
+                    }
+                }
+                Cmd::Shutdown => return,
+            }
+        }
+    }
+
+    fn start_up(&mut self) -> Result<(), RuntimeError> {
+        let root = &self.skeleton.nodes[0];
+        if self.params.mode == Mode::Incore {
+            self.params.budget_bytes = u64::MAX;
+            for r in 0..self.skeleton.reps.len() as RepId {
+                // Unreadable reps are substituted at draw time, as in the other modes.
+                let _ = self.load(r, Purpose::Demand);
+            }
+            self.stats = StageStats::default();
+            return Ok(());
+        }
+        if root.rep_count == 0 {
+            return Ok(());
+        }
+        let r = root.first_rep;
+        let need = u64::from(self.skeleton.reps[r as usize].len);
+        if need > self.params.budget_bytes {
+            return Err(RuntimeError::BudgetTooSmall {
+                budget: self.params.budget_bytes,
+                need,
+            });
+        }
+        match self.load(r, Purpose::Demand) {
+            Ok(_) => {
+                self.keep = Some(r);
+                self.stats = StageStats::default();
+                Ok(())
+            }
+            Err(_) => Err(RuntimeError::RootUnreadable(format!("rep {r}"))),
+        }
+    }
+
+    fn is_pinned(&self, r: RepId) -> bool {
+        self.pinned[r as usize] == self.pin_gen || self.keep == Some(r)
+    }
+
+    /// Stage II for one front.
+    fn fetch(&mut self, front: &[RepId]) -> Result<(), ()> {
+        self.pin_gen += 1;
+        for &r in front {
+            self.pinned[r as usize] = self.pin_gen;
+        }
+        self.list.start_stage2();
+        let mut missing = Vec::new();
+        for &r in front {
+            match &self.data[r as usize] {
+                Some(d) => {
+                    let payload = d.clone();
+                    self.list.access(r);
+                    self.send(Reply::Draw {
+                        rep: r,
+                        for_rep: r,
+                        payload,
+                    })?;
+                }
+                None => missing.push(r),
+            }
+        }
+        self.stats.missing_reps = missing.len() as u32;
+        for r in missing {
+            match self.load(r, Purpose::Demand) {
+                Ok(payload) => self.send(Reply::Draw {
+                    rep: r,
+                    for_rep: r,
+                    payload,
+                })?,
+                Err(_) => self.substitute(r)?,
+            }
+        }
+        self.stats.resident_bytes = self.resident;
+        let stats = std::mem::take(&mut self.stats);
+        self.stats.max_resident_bytes = self.resident;
+        self.send(Reply::Done(stats))
+    }
+
+    fn send(&self, r: Reply) -> Result<(), ()> {
+        self.replies.send(r).map_err(|_| ())
+    }
+
+    /// Draws the nearest resident ancestor in place of `r`.
+    fn substitute(&mut self, r: RepId) -> Result<(), ()> {
+        let mut a = self.skeleton.par(r);
+        while let Some(x) = a {
+            if let Some(d) = &self.data[x as usize] {
+                let payload = d.clone();
+                self.pinned[x as usize] = self.pin_gen;
+                self.list.access(x);
+                return self.send(Reply::Draw {
+                    rep: x,
+                    for_rep: r,
+                    payload,
+                });
+            }
+            a = self.skeleton.par(x);
+        }
+        self.send(Reply::Missing)
+    }
+
+    /// Evicts unpinned reps from the head until `need` more bytes fit; a
+    /// prefetch may only evict reps not accessed since Stage II began.
+    fn make_room(&mut self, need: u64, purpose: Purpose) -> bool {
+        let budget = self.params.budget_bytes;
+        if self.resident.saturating_add(need) <= budget {
+            return true;
+        }
+        if need > budget {
+            return false;
+        }
+        let target = budget - need;
+        let mut victims = Vec::new();
+        let mut after = self.resident;
+        for (r, before_mark) in self.list.iter_from_head() {
+            if purpose == Purpose::Prefetch && !before_mark {
+                break;
+            }
+            if self.is_pinned(r) {
+                continue;
+            }
+            victims.push(r);
+            after -= u64::from(self.skeleton.reps[r as usize].len);
+            if after <= target {
+                break;
+            }
+        }
+        if after > target {
+            return false;
+        }
+        for r in victims {
+            self.data[r as usize] = None;
+            self.list.remove(r);
+            self.resident -= u64::from(self.skeleton.reps[r as usize].len);
+            self.stats.evictions += 1;
+        }
+        true
+    }
+
+    /// Loads rep `r` block by block under the budget.
+    fn load(&mut self, r: RepId, purpose: Purpose) -> Result<Arc<[u8]>, LoadError> {
+        if self.failed[r as usize] {
+            return Err(LoadError::Failed);
+        }
+        let rec = self.skeleton.reps[r as usize];
+        let len = u64::from(rec.len);
+        if !self.make_room(len, purpose) {
+            return Err(LoadError::NoRoom);
+        }
+        // Reserve first: bytes being loaded count against the budget.
+        self.resident += len;
+        self.stats.max_resident_bytes = self.stats.max_resident_bytes.max(self.resident);
+        let mut buf = vec![0u8; rec.len as usize];
+        let block = self.params.block_bytes;
+        let mut done = 0usize;
+        while done < buf.len() {
+            let end = (done + block).min(buf.len());
+            if let Err(e) = self
+                .source
+                .read_at(rec.offset + done as u64, &mut buf[done..end])
+            {
+                self.resident -= len;
+                return Err(self.fail(r, &e.to_string()));
+            }
+            done = end;
+            if purpose == Purpose::Prefetch && done < buf.len() && self.pending.is_none() {
+                if let Ok(c) = self.cmds.try_recv() {
+                    self.pending = Some(c);
+                    self.resident -= len;
+                    return Err(LoadError::Preempted);
+                }
+            }
+        }
+        if let Err(e) = check_rep_crc(r, &rec, &buf) {
+            self.resident -= len;
+            return Err(self.fail(r, &e.to_string()));
+        }
+        let payload: Arc<[u8]> = buf.into();
+        self.data[r as usize] = Some(payload.clone());
+        self.list.access(r);
+        match purpose {
+            Purpose::Demand => self.stats.stage2_bytes += len,
+            Purpose::Prefetch => self.stats.prefetch_bytes += len,
+        }
+        Ok(payload)
+    }
+
+    fn fail(&mut self, r: RepId, why: &str) -> LoadError {
+        self.failed[r as usize] = true;
+        self.stats.read_errors += 1;
+        tracing::warn!(
+            "rep {r} cannot be loaded ({why}); its nearest resident ancestor is drawn instead"
+        );
+        LoadError::Failed
+    }
+
+    /// Flushes the bins and classifies the front under the enlarged frustum
+    /// F_I, when the viewpoint changed.
+    fn classify_front(&mut self, view: &View, turn_rad: f32) {
+        if self.class_view.as_ref() == Some(view) {
+            return;
+        }
+        self.class_view = Some(*view);
+        self.bins.clear();
+        self.class_gen += 1;
+        let p = &self.params.prefetch;
+        let margin = (p.margin_deg + p.margin_per_deg_turn * turn_rad.to_degrees())
+            .min(p.max_margin_deg)
+            .to_radians();
+        let enlarged = view.frustum(margin);
+        let own = view.frustum(0.0);
+        self.theta0 = own.half_angle;
+        self.class_frustum = Some(own);
+        self.theta1 = margin.max(1e-3);
+        let mut front = std::mem::take(&mut self.scratch);
+        self.index
+            .compute(view, &enlarged, self.params.tolerance_px, &mut front);
+        for &r in &front {
+            self.classify(r, 0);
+        }
+        self.scratch = front;
+    }
+
+    fn classify(&mut self, r: RepId, depth: u8) {
+        if self.classified[r as usize] == self.class_gen {
+            return;
+        }
+        self.classified[r as usize] = self.class_gen;
+        let (Some(view), Some(own)) = (self.class_view, self.class_frustum) else {
+            return;
+        };
+        let node = self.skeleton.reps[r as usize].node;
+        let eps = self.index.projected_error(&view, node, r);
+        let (mn, mx) = self.index.node_box(node);
+        let theta = own.angle_to_box(mn, mx);
+        let mut prio = priority(
+            eps,
+            self.params.tolerance_px,
+            ang_pr(theta, self.theta0, self.theta1),
+        );
+        if depth == 0 {
+            // Reps of the F_I front are visibility-prefetched whatever their
+            // error (a leaf's finest rep may project above δ); δ bounds only
+            // how far PAR/CHD classification reaches.
+            prio = prio.min(self.params.delta());
+        }
+        self.bins.push(r, prio, depth);
+    }
+
+    /// PREFETCH: the best classified rep, its parent and children.
+    fn prefetch_step(&mut self) {
+        let Some((o, depth)) = self.bins.pop() else {
+            return;
+        };
+        let mut todo = vec![o];
+        if depth < self.params.prefetch.depth {
+            todo.extend(self.skeleton.par(o));
+            todo.extend(self.skeleton.chd(o));
+        }
+        for (k, x) in todo.into_iter().enumerate() {
+            if self.data[x as usize].is_some() {
+                self.list.access(x);
+            } else {
+                match self.load(x, Purpose::Prefetch) {
+                    Ok(_) | Err(LoadError::NoRoom) | Err(LoadError::Failed) => {}
+                    Err(LoadError::Preempted) => return,
+                }
+            }
+            if k > 0 {
+                self.classify(x, depth + 1);
+            }
+        }
+    }
+}

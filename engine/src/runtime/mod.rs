@@ -1,0 +1,448 @@
+//! The out-of-core runtime (Varadhan & Manocha §4): P_R and P_I.
+//!
+//! [`Walkthrough`] is P_R: per frame it computes the front (Stage I, while P_I
+//! keeps prefetching for the previous frame), sends P_I a fetch command with
+//! the front, draws the resident reps (L_I) as P_I hands them over, then each
+//! missing rep (L_O) as P_I loads it (Stage II), and returns the frame's
+//! metrics. P_I ([`loader`]) owns the resident set: the StartTail
+//! InMemoryList, the byte budget (never exceeded: reps being loaded count),
+//! preemptible block-wise loading, and in `pre` mode binned priority
+//! prefetching with the enlarged frustum in Stages III and I.
+//!
+//! The two threads talk over bounded `crossbeam-channel`s only.
+
+mod loader;
+#[cfg(test)]
+mod tests;
+
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::Instant;
+
+use crossbeam_channel::{Receiver, Sender, bounded};
+
+use crate::camera::{Pose, View};
+use crate::front::FrontIndex;
+use crate::io::ByteSource;
+use crate::metrics::FrameMetrics;
+use crate::render::Renderer;
+use crate::skeleton::{RepId, Skeleton};
+
+/// The three systems of the paper's evaluation, on one code path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// Everything loaded at start (the budget is ignored).
+    Incore,
+    /// Fetch on demand only; P_I idle in Stages I and III.
+    NoPre,
+    /// Fetch plus binned priority prefetching.
+    Pre,
+}
+
+impl Mode {
+    /// The name used in CSV files and tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Incore => "incore",
+            Mode::NoPre => "nopre",
+            Mode::Pre => "pre",
+        }
+    }
+
+    /// Parses `incore`, `nopre` or `pre`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "incore" => Ok(Mode::Incore),
+            "nopre" => Ok(Mode::NoPre),
+            "pre" => Ok(Mode::Pre),
+            _ => Err(format!("unknown mode {s:?}: use incore, nopre or pre")),
+        }
+    }
+}
+
+/// Prefetching parameters (§4.2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrefetchParams {
+    /// Upper end δ of the binned range, in pixels (δ > ε).
+    pub delta_px: f32,
+    /// Number of bins B.
+    pub bins: usize,
+    /// Base widening of F_I over F_R, in degrees (per side).
+    pub margin_deg: f32,
+    /// Extra widening per degree of camera turn per frame.
+    pub margin_per_deg_turn: f32,
+    /// Largest widening, in degrees.
+    pub max_margin_deg: f32,
+    /// Levels of PAR/CHD followed from the front.
+    pub depth: u8,
+}
+
+impl Default for PrefetchParams {
+    fn default() -> Self {
+        Self {
+            delta_px: 0.0,
+            bins: 16,
+            margin_deg: 15.0,
+            margin_per_deg_turn: 4.0,
+            max_margin_deg: 60.0,
+            depth: 3,
+        }
+    }
+}
+
+/// Runtime parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RuntimeParams {
+    pub mode: Mode,
+    /// Hard bound on resident rep bytes (out-of-core modes).
+    pub budget_bytes: u64,
+    /// Error tolerance ε in pixels.
+    pub tolerance_px: f32,
+    pub width_px: u32,
+    pub height_px: u32,
+    pub near: f32,
+    pub far: f32,
+    /// P_I reads reps in blocks of this size and checks for a new fetch
+    /// command after each block while prefetching.
+    pub block_bytes: usize,
+    /// `delta_px == 0` means `4 ε`.
+    pub prefetch: PrefetchParams,
+}
+
+impl Default for RuntimeParams {
+    fn default() -> Self {
+        Self {
+            mode: Mode::Pre,
+            budget_bytes: 64 << 20,
+            tolerance_px: 2.0,
+            width_px: 1280,
+            height_px: 720,
+            near: 0.05,
+            far: 1e6,
+            block_bytes: 64 << 10,
+            prefetch: PrefetchParams::default(),
+        }
+    }
+}
+
+/// Why the runtime cannot start or go on.
+#[derive(Debug, thiserror::Error)]
+pub enum RuntimeError {
+    #[error("invalid parameter: {0}")]
+    Params(String),
+    #[error(
+        "budget of {budget} bytes is below the minimal front (the root's coarsest rep needs {need} bytes)"
+    )]
+    BudgetTooSmall { budget: u64, need: u64 },
+    #[error("the scene has no object-reps")]
+    NoReps,
+    #[error("the root's coarsest rep cannot be read: {0}")]
+    RootUnreadable(String),
+    #[error("the I/O thread stopped unexpectedly")]
+    LoaderGone,
+}
+
+impl RuntimeParams {
+    /// Rejects nonsense values.
+    pub fn check(&self) -> Result<(), RuntimeError> {
+        let bad = |s: &str| Err(RuntimeError::Params(s.to_string()));
+        if !(self.tolerance_px.is_finite() && self.tolerance_px > 0.0) {
+            return bad("tolerance must be a positive number of pixels");
+        }
+        if self.width_px == 0
+            || self.height_px == 0
+            || self.width_px > 1 << 15
+            || self.height_px > 1 << 15
+        {
+            return bad("viewport size must be in 1..=32768");
+        }
+        if !(self.near > 0.0 && self.far > self.near && self.far.is_finite()) {
+            return bad("need 0 < near < far");
+        }
+        if self.block_bytes < 512 {
+            return bad("block size must be at least 512 bytes");
+        }
+        let p = &self.prefetch;
+        if p.bins == 0 || p.bins > 4096 {
+            return bad("bins must be in 1..=4096");
+        }
+        if !(p.delta_px == 0.0 || (p.delta_px.is_finite() && p.delta_px > self.tolerance_px)) {
+            return bad("δ must exceed the tolerance ε");
+        }
+        for v in [p.margin_deg, p.margin_per_deg_turn, p.max_margin_deg] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad("F_I margins must be finite and non-negative");
+            }
+        }
+        if p.max_margin_deg > 80.0 {
+            return bad("F_I margin at most 80 degrees");
+        }
+        Ok(())
+    }
+
+    fn delta(&self) -> f32 {
+        if self.prefetch.delta_px > 0.0 {
+            self.prefetch.delta_px
+        } else {
+            4.0 * self.tolerance_px
+        }
+    }
+}
+
+/// P_R → P_I.
+enum Cmd {
+    Fetch {
+        view: View,
+        turn_rad: f32,
+        front: Arc<Vec<RepId>>,
+    },
+    Shutdown,
+}
+
+/// P_I → P_R.
+enum Reply {
+    /// Draw `rep` for front rep `for_rep` (an ancestor when they differ).
+    Draw {
+        rep: RepId,
+        for_rep: RepId,
+        payload: Arc<[u8]>,
+    },
+    /// Nothing resident can stand in for `for_rep` (only without a root rep).
+    Missing,
+    /// Stage II is over.
+    Done(StageStats),
+}
+
+/// P_I's counters, reported at the end of each Stage II.
+#[derive(Clone, Copy, Debug, Default)]
+struct StageStats {
+    missing_reps: u32,
+    stage2_bytes: u64,
+    prefetch_bytes: u64,
+    resident_bytes: u64,
+    max_resident_bytes: u64,
+    evictions: u32,
+    read_errors: u32,
+}
+
+/// P_R: drives frames against a running P_I.
+pub struct Walkthrough {
+    skeleton: Arc<Skeleton>,
+    index: Arc<FrontIndex>,
+    params: RuntimeParams,
+    cmd: Sender<Cmd>,
+    replies: Receiver<Reply>,
+    loader: Option<JoinHandle<()>>,
+    drawn_stamp: Vec<u32>,
+    frame: u32,
+    last_pose: Option<Pose>,
+    front: Vec<RepId>,
+}
+
+impl std::fmt::Debug for Walkthrough {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Walkthrough")
+            .field("mode", &self.params.mode)
+            .field("frame", &self.frame)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Walkthrough {
+    /// Starts P_I over the skeleton and the rep source. In `incore` mode every
+    /// rep is loaded before this returns; otherwise the root's coarsest rep is
+    /// loaded and kept as the last-resort substitute.
+    pub fn start(
+        skeleton: Arc<Skeleton>,
+        source: Arc<dyn ByteSource>,
+        params: RuntimeParams,
+    ) -> Result<Self, RuntimeError> {
+        params.check()?;
+        if skeleton.reps.is_empty() {
+            return Err(RuntimeError::NoReps);
+        }
+        let index = Arc::new(FrontIndex::new(&skeleton));
+        let (cmd_tx, cmd_rx) = bounded(2);
+        let (reply_tx, reply_rx) = bounded(256);
+        let (ready_tx, ready_rx) = bounded(1);
+        let l = loader::Loader::new(
+            skeleton.clone(),
+            index.clone(),
+            source,
+            params,
+            cmd_rx,
+            reply_tx,
+        );
+        let handle = std::thread::Builder::new()
+            .name("P_I".into())
+            .spawn(move || l.run(ready_tx))
+            .map_err(|_| RuntimeError::LoaderGone)?;
+        match ready_rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => {
+                let _ = handle.join();
+                return Err(e);
+            }
+            Err(_) => return Err(RuntimeError::LoaderGone),
+        }
+        Ok(Self {
+            drawn_stamp: vec![0; skeleton.reps.len()],
+            skeleton,
+            index,
+            params,
+            cmd: cmd_tx,
+            replies: reply_rx,
+            loader: Some(handle),
+            frame: 0,
+            last_pose: None,
+            front: Vec::new(),
+        })
+    }
+
+    /// The parameters in force.
+    pub fn params(&self) -> &RuntimeParams {
+        &self.params
+    }
+
+    /// The view for a pose under these parameters.
+    pub fn view(&self, pose: &Pose) -> View {
+        View {
+            pose: *pose,
+            width_px: self.params.width_px,
+            height_px: self.params.height_px,
+            near: self.params.near,
+            far: self.params.far,
+        }
+    }
+
+    /// The front of the last frame.
+    pub fn last_front(&self) -> &[RepId] {
+        &self.front
+    }
+
+    /// Renders one frame from `pose`.
+    pub fn frame(
+        &mut self,
+        pose: &Pose,
+        renderer: &mut dyn Renderer,
+    ) -> Result<FrameMetrics, RuntimeError> {
+        let t0 = Instant::now();
+        let view = self.view(pose);
+        let mut front = std::mem::take(&mut self.front);
+        let fs = self.index.compute(
+            &view,
+            &view.frustum(0.0),
+            self.params.tolerance_px,
+            &mut front,
+        );
+        let front_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let turn_rad = self.last_pose.map_or(0.0, |p| p.angle_to(pose));
+        self.last_pose = Some(*pose);
+        let front = Arc::new(front);
+        self.cmd
+            .send(Cmd::Fetch {
+                view,
+                turn_rad,
+                front: front.clone(),
+            })
+            .map_err(|_| RuntimeError::LoaderGone)?;
+        self.frame += 1;
+        let stamp = self.frame;
+        let mut m = FrameMetrics {
+            frame: self.frame - 1,
+            mode: self.params.mode.name(),
+            front_ms,
+            front_reps: front.len() as u32,
+            budget_bytes: self.params.budget_bytes,
+            nodes_visited: fs.nodes_visited,
+            ..Default::default()
+        };
+        for &r in front.iter() {
+            let rec = &self.skeleton.reps[r as usize];
+            m.front_tris += u64::from(rec.tri_count);
+            m.front_bytes += u64::from(rec.len);
+        }
+        renderer.begin_frame(&view);
+        let mut wait = 0.0;
+        let stats = loop {
+            let reply = match self.replies.try_recv() {
+                Ok(r) => r,
+                Err(_) => {
+                    let w = Instant::now();
+                    let r = self.replies.recv().map_err(|_| RuntimeError::LoaderGone)?;
+                    wait += w.elapsed().as_secs_f64() * 1e3;
+                    r
+                }
+            };
+            match reply {
+                Reply::Draw {
+                    rep,
+                    for_rep,
+                    payload,
+                } => {
+                    if rep == for_rep {
+                        m.drawn_reps += 1;
+                    } else {
+                        m.substituted += 1;
+                    }
+                    if self.drawn_stamp[rep as usize] != stamp {
+                        self.drawn_stamp[rep as usize] = stamp;
+                        let rec = &self.skeleton.reps[rep as usize];
+                        m.drawn_tris += u64::from(rec.tri_count);
+                        renderer.draw(rep, rec, &payload);
+                    }
+                }
+                Reply::Missing => m.substituted += 1,
+                Reply::Done(s) => break s,
+            }
+        };
+        renderer.end_frame();
+        self.front = Arc::try_unwrap(front).unwrap_or_else(|a| (*a).clone());
+        m.wait_ms = wait;
+        m.missing_reps = stats.missing_reps;
+        m.stage2_bytes = stats.stage2_bytes;
+        m.prefetch_bytes = stats.prefetch_bytes;
+        m.resident_bytes = stats.resident_bytes;
+        m.max_resident_bytes = stats.max_resident_bytes;
+        m.evictions = stats.evictions;
+        m.read_errors = stats.read_errors;
+        m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
+        Ok(m)
+    }
+}
+
+impl Drop for Walkthrough {
+    fn drop(&mut self) {
+        let _ = self.cmd.send(Cmd::Shutdown);
+        if let Some(h) = self.loader.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+/// Plays `poses` at `fps` frames per second (0: as fast as possible): each
+/// frame starts a frame period after the previous one, or when it finished.
+pub fn run_path(
+    walk: &mut Walkthrough,
+    poses: &[Pose],
+    renderer: &mut dyn Renderer,
+    fps: f32,
+) -> Result<Vec<FrameMetrics>, RuntimeError> {
+    let period = if fps > 0.0 {
+        std::time::Duration::from_secs_f32(1.0 / fps)
+    } else {
+        std::time::Duration::ZERO
+    };
+    let mut out = Vec::with_capacity(poses.len());
+    let mut next = Instant::now();
+    for pose in poses {
+        let now = Instant::now();
+        if next > now {
+            std::thread::sleep(next - now);
+        }
+        let start = Instant::now();
+        out.push(walk.frame(pose, renderer)?);
+        next = start + period;
+    }
+    Ok(out)
+}

@@ -1,0 +1,221 @@
+use std::sync::Arc;
+
+use glam::Vec3;
+use proptest::prelude::*;
+
+use super::*;
+use crate::camera::Pose;
+use crate::disk::FaultySource;
+use crate::format::SceneFile;
+use crate::io::MemSource;
+use crate::render::NoneRenderer;
+use crate::testutil::build;
+
+fn scene(reps: &[u32], children: &[u32]) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
+    let (bytes, _) = build(reps, children);
+    let file = SceneFile::from_source(MemSource::new(bytes.clone())).unwrap();
+    (
+        Arc::new(file.skeleton().clone()),
+        Arc::new(MemSource::new(bytes)),
+    )
+}
+
+/// A root with `n` leaves of three LODs under `n / 4` interior nodes.
+fn wide(n: u32) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
+    let groups = n / 4;
+    let mut reps = vec![1];
+    let mut children = vec![groups];
+    reps.extend(std::iter::repeat_n(1, groups as usize));
+    children.extend(std::iter::repeat_n(4, groups as usize));
+    reps.extend(std::iter::repeat_n(3, (groups * 4) as usize));
+    children.extend(std::iter::repeat_n(0, (groups * 4) as usize));
+    scene(&reps, &children)
+}
+
+fn params(mode: Mode, budget: u64) -> RuntimeParams {
+    RuntimeParams {
+        mode,
+        budget_bytes: budget,
+        tolerance_px: 1.0,
+        width_px: 640,
+        height_px: 480,
+        near: 0.01,
+        far: 1e4,
+        block_bytes: 512,
+        ..Default::default()
+    }
+}
+
+fn pose(x: f32, y: f32, z: f32, yaw: f32) -> Pose {
+    Pose::from_yaw_pitch(Vec3::new(x, y, z), yaw, -0.2, 60.0)
+}
+
+fn check_frames(frames: &[FrameMetrics], budget: u64) {
+    for f in frames {
+        assert!(
+            f.max_resident_bytes <= budget,
+            "frame {}: {} > {budget}",
+            f.frame,
+            f.max_resident_bytes
+        );
+        assert!(f.resident_bytes <= budget);
+        assert_eq!(
+            f.drawn_reps + f.substituted,
+            f.front_reps,
+            "frame {}",
+            f.frame
+        );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    #[test]
+    fn budget_is_never_exceeded_and_every_front_rep_is_drawn_or_substituted(
+        budget_frac in 0.0f64..1.0,
+        steps in prop::collection::vec((-3.0f32..3.0, -1.0f32..1.0, -3.0f32..3.0, -1.5f32..1.5), 200..400),
+        prefetch in any::<bool>(),
+    ) {
+        let (skel, src) = wide(64);
+        let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+        let root = u64::from(skel.reps[0].len);
+        let budget = root + ((total - root) as f64 * budget_frac) as u64;
+        let mode = if prefetch { Mode::Pre } else { Mode::NoPre };
+        let mut walk = Walkthrough::start(skel, src, params(mode, budget)).unwrap();
+        let mut r = NoneRenderer::new(0.0);
+        // A random walk, with jumps, along and around the row of leaves.
+        let (mut x, mut y, mut z, mut yaw) = (0.0f32, 0.5f32, 3.0f32, 0.0f32);
+        let mut poses = Vec::new();
+        for &(dx, dy, dz, dyaw) in &steps {
+            x = (x + dx).clamp(-10.0, 80.0);
+            y = (y + dy).clamp(-2.0, 20.0);
+            z = (z + dz).clamp(-20.0, 20.0);
+            yaw += dyaw;
+            poses.push(pose(x, y, z, yaw));
+        }
+        let frames = run_path(&mut walk, &poses, &mut r, 0.0).unwrap();
+        check_frames(&frames, budget);
+    }
+}
+
+#[test]
+fn thousands_of_frames_under_a_tight_budget_do_not_deadlock() {
+    let (skel, src) = wide(128);
+    let budget = u64::from(skel.reps[0].len) * 6;
+    for mode in [Mode::NoPre, Mode::Pre] {
+        let mut walk = Walkthrough::start(skel.clone(), src.clone(), params(mode, budget)).unwrap();
+        let poses: Vec<Pose> = (0..3000)
+            .map(|i| {
+                let t = i as f32 * 0.05;
+                pose(
+                    64.0 + 60.0 * t.sin(),
+                    0.5,
+                    1.5 + (t * 0.7).cos(),
+                    (t * 3.1).sin() * 2.5,
+                )
+            })
+            .collect();
+        let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 0.0).unwrap();
+        check_frames(&frames, budget);
+        assert!(
+            frames.iter().map(|f| f.substituted).sum::<u32>() > 0,
+            "{mode:?}: the budget should bind"
+        );
+        assert!(frames.iter().map(|f| f.evictions).sum::<u32>() > 0);
+    }
+}
+
+#[test]
+fn incore_holds_everything_and_fetches_nothing_per_frame() {
+    let (skel, src) = wide(16);
+    let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    let mut walk = Walkthrough::start(skel, src, params(Mode::Incore, 1)).unwrap();
+    let poses: Vec<Pose> = (0..50)
+        .map(|i| pose(i as f32 * 0.4, 0.5, 2.0, 1.2))
+        .collect();
+    let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 0.0).unwrap();
+    for f in &frames {
+        assert_eq!(f.stage2_bytes, 0);
+        assert_eq!(f.missing_reps, 0);
+        assert_eq!(f.resident_bytes, total);
+        assert_eq!(f.drawn_reps, f.front_reps);
+    }
+}
+
+#[test]
+fn prefetching_cuts_demand_fetches_on_a_smooth_path() {
+    let (skel, src) = wide(128);
+    let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    let poses: Vec<Pose> = (0..400)
+        .map(|i| pose(i as f32 * 0.3 - 5.0, 0.5, 2.0, 1.0))
+        .collect();
+    let mut bytes = Vec::new();
+    for mode in [Mode::NoPre, Mode::Pre] {
+        let mut walk =
+            Walkthrough::start(skel.clone(), src.clone(), params(mode, total / 3)).unwrap();
+        // A paced walk leaves P_I time to prefetch between frames.
+        let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 500.0).unwrap();
+        check_frames(&frames, total / 3);
+        bytes.push(frames.iter().map(|f| f.stage2_bytes).sum::<u64>());
+    }
+    assert!(
+        bytes[1] * 2 < bytes[0],
+        "Stage II bytes nopre {} vs pre {}",
+        bytes[0],
+        bytes[1]
+    );
+}
+
+#[test]
+fn a_failing_rep_is_logged_substituted_and_the_run_goes_on() {
+    let (bytes, skeleton) = build(&[1, 1, 3, 3], &[1, 2, 0, 0]);
+    let bad = skeleton.reps[4]; // node 2's finest-but-one... any leaf rep
+    let src = FaultySource::new(MemSource::new(bytes), vec![(bad.offset, bad.offset + 1)]);
+    let skel = Arc::new(skeleton);
+    let mut walk =
+        Walkthrough::start(skel.clone(), Arc::new(src), params(Mode::NoPre, 1 << 20)).unwrap();
+    let mut errors = 0;
+    let mut substituted = 0;
+    for i in 0..200 {
+        let p = pose(
+            0.5 + (i % 20) as f32 * 0.05,
+            0.5,
+            0.2 + (i % 50) as f32 * 0.5,
+            0.0,
+        );
+        let f = walk.frame(&p, &mut NoneRenderer::new(0.0)).unwrap();
+        errors += f.read_errors;
+        substituted += f.substituted;
+        assert_eq!(f.drawn_reps + f.substituted, f.front_reps);
+    }
+    assert_eq!(errors, 1, "logged once");
+    assert!(substituted > 0);
+}
+
+#[test]
+fn start_up_errors_are_typed() {
+    let (skel, src) = wide(8);
+    let root = u64::from(skel.reps[0].len);
+    assert!(matches!(
+        Walkthrough::start(skel.clone(), src.clone(), params(Mode::NoPre, root - 1)),
+        Err(RuntimeError::BudgetTooSmall { .. })
+    ));
+    let mut p = params(Mode::Pre, 1 << 20);
+    p.tolerance_px = f32::NAN;
+    assert!(matches!(
+        Walkthrough::start(skel.clone(), src.clone(), p),
+        Err(RuntimeError::Params(_))
+    ));
+    let mut p = params(Mode::Pre, 1 << 20);
+    p.prefetch.delta_px = 0.5;
+    assert!(Walkthrough::start(skel.clone(), src.clone(), p).is_err());
+    let bad = Arc::new(FaultySource::new(
+        MemSource::new(vec![0u8; src.len() as usize]),
+        vec![(0, u64::MAX)],
+    ));
+    assert!(matches!(
+        Walkthrough::start(skel, bad, params(Mode::NoPre, 1 << 20)),
+        Err(RuntimeError::RootUnreadable(_))
+    ));
+    assert!(Mode::parse("fast").is_err());
+}
