@@ -294,9 +294,10 @@ pub fn generate_path(kind: PathKind, min: Vec3, max: Vec3, frames: usize) -> Vec
     }
 }
 
-/// A closed route through the scene at about a third of its height: straight
-/// walks with smooth heading changes, fast pans to the side every ~4 s, and a
-/// sudden about-turn every ~7 s (at 30 frames per second).
+/// A closed route through the scene at about a third of its height, flown at
+/// a walkthrough pace (a fortieth of the scene's diagonal per second at 30
+/// frames per second): straight stretches with smooth heading changes, a fast
+/// pan to the side every 4 s and a sudden 90° turn every 7 s.
 fn flythrough(min: Vec3, e: Vec3, n: usize, fov: f32) -> Vec<Pose> {
     let height = min.y + e.y * 0.35;
     let route = |t: f32| {
@@ -308,9 +309,13 @@ fn flythrough(min: Vec3, e: Vec3, n: usize, fov: f32) -> Vec<Pose> {
             min.z + e.z * (0.5 + 0.38 * (2.0 * a).sin()),
         )
     };
+    let loop_len: f32 = (0..1000)
+        .map(|k| route((k + 1) as f32 / 1000.0).distance(route(k as f32 / 1000.0)))
+        .sum();
+    let step = e.length() / 40.0 / 30.0 / loop_len.max(1e-6);
     (0..n)
         .map(|i| {
-            let t = i as f32 / n as f32;
+            let t = i as f32 * step;
             let eye = route(t);
             let ahead = route(t + 0.002) - eye;
             let mut yaw = yaw_of(ahead.normalize_or(Vec3::NEG_Z));
@@ -322,13 +327,14 @@ fn flythrough(min: Vec3, e: Vec3, n: usize, fov: f32) -> Vec<Pose> {
                 yaw += s * 1.4 * if (i / 120) % 2 == 0 { 1.0 } else { -1.0 };
                 pitch += s * 0.2;
             }
-            // Sudden turn: look back for 30 frames, switched within 3 frames.
+            // Sudden turn: 90 degrees to the side within 10 frames (270°/s),
+            // held for 40 frames, then back.
             let j = i % 210;
-            if (150..180).contains(&j) {
-                let ramp = ((j - 150) as f32 / 3.0)
+            if (150..200).contains(&j) {
+                let ramp = ((j - 150) as f32 / 10.0)
                     .min(1.0)
-                    .min((180 - j) as f32 / 3.0);
-                yaw += std::f32::consts::PI * ramp;
+                    .min((200 - j) as f32 / 10.0);
+                yaw += std::f32::consts::FRAC_PI_2 * ramp;
             }
             Pose::from_yaw_pitch(eye, yaw, pitch, fov)
         })
@@ -421,7 +427,7 @@ mod tests {
             .windows(2)
             .map(|w| w[0].angle_to(&w[1]))
             .fold(0.0, f32::max);
-        assert!(max_step > 0.8, "largest per-frame turn {max_step} rad");
+        assert!(max_step > 0.14, "largest per-frame turn {max_step} rad");
         let approach = generate_path(PathKind::Approach, Vec3::ZERO, Vec3::splat(10.0), 50);
         assert!(
             approach[0].position.distance(Vec3::splat(5.0))

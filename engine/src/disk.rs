@@ -47,7 +47,7 @@ impl DiskModel {
                 })?;
                 let l: f64 = l.parse().map_err(|_| format!("bad latency in {s:?}"))?;
                 let b: f64 = b.parse().map_err(|_| format!("bad bandwidth in {s:?}"))?;
-                if !(l.is_finite() && l >= 0.0 && l < 10_000.0 && b.is_finite() && b > 0.0) {
+                if !((0.0..10_000.0).contains(&l) && b.is_finite() && b > 0.0) {
                     return Err(format!("disk model {s:?} out of range"));
                 }
                 Ok(Self {

@@ -30,16 +30,22 @@ pub struct FrameMetrics {
     pub drawn_tris: u64,
     pub read_errors: u32,
     pub nodes_visited: u32,
+    /// Misses whose node was in the previous front (an LOD switch).
+    pub miss_lod: u32,
+    /// Misses whose ancestor or descendant node was (an HLOD switch).
+    pub miss_hier: u32,
+    /// Misses of newly visible parts of the scene.
+    pub miss_new: u32,
 }
 
 /// CSV header matching [`FrameMetrics::csv_row`].
-pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited";
+pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new";
 
 impl FrameMetrics {
     /// One CSV line (no newline).
     pub fn csv_row(&self) -> String {
         format!(
-            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             self.frame,
             self.mode,
             self.frame_ms,
@@ -59,7 +65,10 @@ impl FrameMetrics {
             self.drawn_reps,
             self.drawn_tris,
             self.read_errors,
-            self.nodes_visited
+            self.nodes_visited,
+            self.miss_lod,
+            self.miss_hier,
+            self.miss_new
         )
     }
 }

@@ -1,6 +1,7 @@
 //! P_I: the resident set, fetching (Stage II) and prefetching (Stages III, I).
 
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender, TryRecvError};
 
@@ -56,6 +57,16 @@ pub(super) struct Loader {
     /// F_R of the classified view (for the angle of each rep).
     class_frustum: Option<crate::camera::Frustum>,
     scratch: Vec<RepId>,
+    /// When the next fetch command is expected (paced runs).
+    next_fetch: Option<Instant>,
+    /// Learnt read costs: seconds for a rep's first block (seek included, a
+    /// decaying maximum) and per further byte (a moving average).
+    first_block_s: f64,
+    per_byte_s: f64,
+    /// Miss accounting: `front_stamp[n]` / `above_stamp[n]` equal `pin_gen - 1`
+    /// when node n was in the previous front / above a node that was.
+    front_stamp: Vec<u32>,
+    above_stamp: Vec<u32>,
 }
 
 impl Loader {
@@ -68,6 +79,7 @@ impl Loader {
         replies: Sender<Reply>,
     ) -> Self {
         let n = skeleton.reps.len();
+        let skeleton_nodes = skeleton.nodes.len();
         Self {
             bins: Bins::new(params.prefetch.bins, params.delta(), params.tolerance_px),
             skeleton,
@@ -92,6 +104,11 @@ impl Loader {
             theta1: 1.0,
             class_frustum: None,
             scratch: Vec::new(),
+            next_fetch: None,
+            first_block_s: 0.0,
+            per_byte_s: 0.0,
+            front_stamp: vec![0; skeleton_nodes],
+            above_stamp: vec![0; skeleton_nodes],
         }
     }
 
@@ -127,6 +144,9 @@ impl Loader {
                     turn_rad,
                     front,
                 } => {
+                    let period = self.params.frame_period_s;
+                    self.next_fetch = (period > 0.0)
+                        .then(|| Instant::now() + Duration::from_secs_f32(period * 0.95));
                     if self.fetch(&front).is_err() {
                         return;
                     }
@@ -198,6 +218,9 @@ impl Loader {
             }
         }
         self.stats.missing_reps = missing.len() as u32;
+        self.account_misses(front, &missing);
+        // In file order: neighbouring reps are read without a seek.
+        missing.sort_unstable_by_key(|&r| self.skeleton.reps[r as usize].offset);
         for r in missing {
             match self.load(r, Purpose::Demand) {
                 Ok(payload) => self.send(Reply::Draw {
@@ -212,6 +235,43 @@ impl Loader {
         let stats = std::mem::take(&mut self.stats);
         self.stats.max_resident_bytes = self.resident;
         self.send(Reply::Done(stats))
+    }
+
+    /// Classifies this frame's misses against the previous front, then
+    /// stamps this front's nodes for the next frame.
+    fn account_misses(&mut self, front: &[RepId], missing: &[RepId]) {
+        let prev = self.pin_gen - 1;
+        for &r in missing {
+            let n = self.skeleton.reps[r as usize].node;
+            if self.front_stamp[n as usize] == prev {
+                self.stats.miss_lod += 1;
+                continue;
+            }
+            let mut up = self.skeleton.nodes[n as usize].parent;
+            let mut below_prev = false;
+            while up != crate::format::NONE {
+                if self.front_stamp[up as usize] == prev {
+                    below_prev = true;
+                    break;
+                }
+                up = self.skeleton.nodes[up as usize].parent;
+            }
+            if below_prev || self.above_stamp[n as usize] == prev {
+                self.stats.miss_hier += 1;
+            } else {
+                self.stats.miss_new += 1;
+            }
+        }
+        let cur = self.pin_gen;
+        for &r in front {
+            let n = self.skeleton.reps[r as usize].node;
+            self.front_stamp[n as usize] = cur;
+            let mut up = self.skeleton.nodes[n as usize].parent;
+            while up != crate::format::NONE && self.above_stamp[up as usize] != cur {
+                self.above_stamp[up as usize] = cur;
+                up = self.skeleton.nodes[up as usize].parent;
+            }
+        }
     }
 
     fn send(&self, r: Reply) -> Result<(), ()> {
@@ -293,6 +353,7 @@ impl Loader {
         let mut done = 0usize;
         while done < buf.len() {
             let end = (done + block).min(buf.len());
+            let t = Instant::now();
             if let Err(e) = self
                 .source
                 .read_at(rec.offset + done as u64, &mut buf[done..end])
@@ -300,13 +361,16 @@ impl Loader {
                 self.resident -= len;
                 return Err(self.fail(r, &e.to_string()));
             }
+            self.learn(done == 0, end - done, t.elapsed());
             done = end;
-            if purpose == Purpose::Prefetch && done < buf.len() && self.pending.is_none() {
-                if let Ok(c) = self.cmds.try_recv() {
-                    self.pending = Some(c);
-                    self.resident -= len;
-                    return Err(LoadError::Preempted);
-                }
+            if purpose == Purpose::Prefetch
+                && done < buf.len()
+                && self.pending.is_none()
+                && let Ok(c) = self.cmds.try_recv()
+            {
+                self.pending = Some(c);
+                self.resident -= len;
+                return Err(LoadError::Preempted);
             }
         }
         if let Err(e) = check_rep_crc(r, &rec, &buf) {
@@ -321,6 +385,30 @@ impl Loader {
             Purpose::Prefetch => self.stats.prefetch_bytes += len,
         }
         Ok(payload)
+    }
+
+    /// Updates the read-cost estimates from one block read.
+    fn learn(&mut self, first: bool, bytes: usize, took: Duration) {
+        const A: f64 = 0.2;
+        let t = took.as_secs_f64();
+        if first {
+            // A decaying maximum: a seek may come with any read, and a
+            // prefetch still running when the fetch command arrives stalls P_R.
+            self.first_block_s = t.max(self.first_block_s * 0.995);
+        } else if bytes > 0 {
+            self.per_byte_s += A * (t / bytes as f64 - self.per_byte_s);
+        }
+    }
+
+    /// Whether a prefetch read of `len` bytes should finish before the next
+    /// fetch command is due.
+    fn fits_in_frame(&self, len: u64) -> bool {
+        let Some(due) = self.next_fetch else {
+            return true;
+        };
+        let rest = len.saturating_sub(self.params.block_bytes as u64) as f64;
+        let need = self.first_block_s + rest * self.per_byte_s;
+        Instant::now() + Duration::from_secs_f64(need) <= due
     }
 
     fn fail(&mut self, r: RepId, why: &str) -> LoadError {
@@ -398,6 +486,10 @@ impl Loader {
         for (k, x) in todo.into_iter().enumerate() {
             if self.data[x as usize].is_some() {
                 self.list.access(x);
+            } else if !self.fits_in_frame(u64::from(self.skeleton.reps[x as usize].len)) {
+                // Not before the next frame: wait for its fetch command.
+                self.bins.clear();
+                return;
             } else {
                 match self.load(x, Purpose::Prefetch) {
                     Ok(_) | Err(LoadError::NoRoom) | Err(LoadError::Failed) => {}

@@ -82,10 +82,10 @@ impl Default for PrefetchParams {
         Self {
             delta_px: 0.0,
             bins: 16,
-            margin_deg: 15.0,
+            margin_deg: 30.0,
             margin_per_deg_turn: 4.0,
             max_margin_deg: 60.0,
-            depth: 3,
+            depth: 1,
         }
     }
 }
@@ -107,6 +107,9 @@ pub struct RuntimeParams {
     pub block_bytes: usize,
     /// `delta_px == 0` means `4 ε`.
     pub prefetch: PrefetchParams,
+    /// Frame period P_R keeps (0: unpaced). P_I starts a prefetch read only
+    /// when it expects to finish before the next fetch command is due.
+    pub frame_period_s: f32,
 }
 
 impl Default for RuntimeParams {
@@ -121,6 +124,7 @@ impl Default for RuntimeParams {
             far: 1e6,
             block_bytes: 64 << 10,
             prefetch: PrefetchParams::default(),
+            frame_period_s: 0.0,
         }
     }
 }
@@ -158,6 +162,9 @@ impl RuntimeParams {
         }
         if !(self.near > 0.0 && self.far > self.near && self.far.is_finite()) {
             return bad("need 0 < near < far");
+        }
+        if !(self.frame_period_s.is_finite() && self.frame_period_s >= 0.0) {
+            return bad("frame period must be a non-negative number of seconds");
         }
         if self.block_bytes < 512 {
             return bad("block size must be at least 512 bytes");
@@ -223,6 +230,9 @@ struct StageStats {
     max_resident_bytes: u64,
     evictions: u32,
     read_errors: u32,
+    miss_lod: u32,
+    miss_hier: u32,
+    miss_new: u32,
 }
 
 /// P_R: drives frames against a running P_I.
@@ -406,6 +416,9 @@ impl Walkthrough {
         m.max_resident_bytes = stats.max_resident_bytes;
         m.evictions = stats.evictions;
         m.read_errors = stats.read_errors;
+        m.miss_lod = stats.miss_lod;
+        m.miss_hier = stats.miss_hier;
+        m.miss_new = stats.miss_new;
         m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok(m)
     }

@@ -1,0 +1,248 @@
+//! `hlod-bench`: replays a camera path through a built scene in each mode
+//! (`incore`, `nopre`, `pre`) and reports per-frame metrics and a summary.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use engine::camera::{PathKind, Pose, format_path, generate_path, read_path};
+use engine::disk::{DiskModel, ThrottledSource, drop_page_cache};
+use engine::metrics::{Summary, summarize, summary_table, to_csv};
+use engine::render::NoneRenderer;
+use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path};
+use engine::{ByteSource, FileSource, SceneFile};
+use glam::Vec3;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "hlod-bench",
+    version,
+    about = "Walk a camera path through a scene in-core and out-of-core"
+)]
+struct Args {
+    scene: PathBuf,
+    /// Camera path file (default: the scene's generated fly-through).
+    #[arg(long)]
+    path: Option<PathBuf>,
+    /// Generated path when no --path: flythrough, approach or orbit.
+    #[arg(long, default_value = "flythrough")]
+    path_kind: String,
+    /// Frames of a generated path.
+    #[arg(long, default_value_t = 600)]
+    frames: usize,
+    #[arg(long, default_value = "incore,nopre,pre")]
+    modes: String,
+    /// Memory footprint: bytes, with KiB/MiB/GiB, or a percentage of the rep data (e.g. 2.5%).
+    #[arg(long, default_value = "2.5%")]
+    budget: String,
+    /// Error tolerance ε in pixels.
+    #[arg(long, default_value_t = 2.0)]
+    tolerance: f32,
+    #[arg(long, default_value = "none")]
+    renderer: String,
+    /// Modelled speed of the none renderer in triangles per second (0: free).
+    #[arg(long, default_value_t = 0.0)]
+    render_rate: f64,
+    /// file (the real file, page cache dropped), hdd, ssd, nvme, or LATENCY_MS:MB_PER_S.
+    #[arg(long, default_value = "file")]
+    disk: String,
+    /// Frame pacing (0: as fast as possible).
+    #[arg(long, default_value_t = 30.0)]
+    fps: f32,
+    #[arg(long, default_value_t = 1280)]
+    width: u32,
+    #[arg(long, default_value_t = 720)]
+    height: u32,
+    /// Bins B of the prefetcher.
+    #[arg(long, default_value_t = 16)]
+    bins: usize,
+    /// δ in pixels (0: 4 ε).
+    #[arg(long, default_value_t = 0.0)]
+    delta: f32,
+    /// Base widening of F_I, degrees.
+    #[arg(long, default_value_t = 30.0)]
+    margin: f32,
+    /// Levels of PAR/CHD prefetched.
+    #[arg(long, default_value_t = 1)]
+    prefetch_depth: u8,
+    /// Output directory for CSVs, the summary and the path used.
+    #[arg(long, default_value = "out/bench")]
+    out: PathBuf,
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .without_time()
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+        .init();
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn parse_budget(s: &str, data_bytes: u64) -> Result<u64> {
+    let t = s.trim();
+    if let Some(p) = t.strip_suffix('%') {
+        let v: f64 = p
+            .trim()
+            .parse()
+            .with_context(|| format!("--budget {s:?}"))?;
+        if !(v > 0.0 && v <= 100.0) {
+            bail!("--budget {s:?}: a percentage must be in (0, 100]");
+        }
+        return Ok((data_bytes as f64 * v / 100.0) as u64);
+    }
+    let (num, mult) = [
+        ("GiB", 1u64 << 30),
+        ("MiB", 1 << 20),
+        ("KiB", 1 << 10),
+        ("GB", 1_000_000_000),
+        ("MB", 1_000_000),
+        ("KB", 1000),
+        ("B", 1),
+    ]
+    .iter()
+    .find_map(|(suf, m)| t.strip_suffix(suf).map(|n| (n.trim(), *m)))
+    .unwrap_or((t, 1));
+    let v: f64 = num
+        .parse()
+        .with_context(|| format!("--budget {s:?}: expected e.g. 25MiB or 2.5%"))?;
+    if !(v.is_finite() && v > 0.0) {
+        bail!("--budget {s:?} must be positive");
+    }
+    Ok((v * mult as f64) as u64)
+}
+
+fn run(a: Args) -> Result<()> {
+    if a.renderer != "none" {
+        bail!(
+            "--renderer {:?}: only `none` is available in this build (the wgpu renderer is not implemented yet)",
+            a.renderer
+        );
+    }
+    let modes: Vec<Mode> = a
+        .modes
+        .split(',')
+        .map(|m| Mode::parse(m.trim()))
+        .collect::<Result<_, _>>()
+        .map_err(anyhow::Error::msg)?;
+    if modes.is_empty() {
+        bail!("--modes is empty");
+    }
+    let disk = if a.disk == "file" {
+        None
+    } else {
+        Some(DiskModel::parse(&a.disk).map_err(anyhow::Error::msg)?)
+    };
+    let finite_non_negative = |v: f64| v.is_finite() && v >= 0.0;
+    if !(finite_non_negative(f64::from(a.fps)) && finite_non_negative(a.render_rate)) {
+        bail!("--fps and --render-rate must be non-negative numbers");
+    }
+    let scene = SceneFile::open(&a.scene).with_context(|| a.scene.display().to_string())?;
+    let skel = Arc::new(scene.skeleton().clone());
+    let data_bytes: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    let budget = parse_budget(&a.budget, data_bytes)?;
+    let root = &skel.nodes[0];
+    let (min, max) = (Vec3::from(root.bbox_min), Vec3::from(root.bbox_max));
+    let poses: Vec<Pose> = match &a.path {
+        Some(p) => read_path(p)?,
+        None => {
+            let kind = match a.path_kind.as_str() {
+                "flythrough" => PathKind::Flythrough,
+                "approach" => PathKind::Approach,
+                "orbit" => PathKind::Orbit,
+                k => bail!("--path-kind {k:?}: use flythrough, approach or orbit"),
+            };
+            if a.frames == 0 || a.frames > 1_000_000 {
+                bail!("--frames must be in 1..=1000000");
+            }
+            generate_path(kind, min, max, a.frames)
+        }
+    };
+    std::fs::create_dir_all(&a.out).with_context(|| a.out.display().to_string())?;
+    std::fs::write(a.out.join("path.txt"), format_path(&poses))?;
+    let diag = (max - min).length().max(1.0);
+    let params = RuntimeParams {
+        mode: Mode::Pre,
+        budget_bytes: budget,
+        tolerance_px: a.tolerance,
+        width_px: a.width,
+        height_px: a.height,
+        near: (diag * 1e-5).max(0.01),
+        far: diag * 10.0,
+        prefetch: PrefetchParams {
+            delta_px: a.delta,
+            bins: a.bins,
+            margin_deg: a.margin,
+            depth: a.prefetch_depth,
+            ..PrefetchParams::default()
+        },
+        frame_period_s: if a.fps > 0.0 { 1.0 / a.fps } else { 0.0 },
+        ..RuntimeParams::default()
+    };
+    println!(
+        "scene {}: {} nodes, {} reps, {:.1} MiB of rep data; budget {:.2} MiB ({:.2}%); {} frames at {} fps; disk {}; tolerance {} px",
+        a.scene.display(),
+        skel.nodes.len(),
+        skel.reps.len(),
+        data_bytes as f64 / 1048576.0,
+        budget as f64 / 1048576.0,
+        100.0 * budget as f64 / data_bytes as f64,
+        poses.len(),
+        a.fps,
+        a.disk,
+        a.tolerance
+    );
+    let period_ms = if a.fps > 0.0 {
+        1000.0 / f64::from(a.fps)
+    } else {
+        f64::INFINITY
+    };
+    let mut rows: Vec<Summary> = Vec::new();
+    for mode in modes {
+        let source = open_source(&a.scene, if mode == Mode::Incore { None } else { disk })?;
+        let mut walk = Walkthrough::start(skel.clone(), source, RuntimeParams { mode, ..params })
+            .with_context(|| format!("starting mode {}", mode.name()))?;
+        let mut renderer = NoneRenderer::new(a.render_rate);
+        let frames = run_path(&mut walk, &poses, &mut renderer, a.fps)?;
+        drop(walk);
+        std::fs::write(a.out.join(format!("{}.csv", mode.name())), to_csv(&frames))?;
+        let over = frames
+            .iter()
+            .filter(|f| f.max_resident_bytes > budget)
+            .count();
+        if mode != Mode::Incore && over > 0 {
+            bail!(
+                "mode {}: the footprint exceeded the budget on {over} frames",
+                mode.name()
+            );
+        }
+        rows.push(summarize(&frames, period_ms));
+        eprintln!("{}: done", mode.name());
+    }
+    let table = summary_table(&rows);
+    println!("\n{table}");
+    std::fs::write(a.out.join("summary.md"), &table)?;
+    println!(
+        "per-frame CSVs, summary.md and path.txt in {}",
+        a.out.display()
+    );
+    Ok(())
+}
+
+fn open_source(path: &Path, model: Option<DiskModel>) -> Result<Arc<dyn ByteSource>> {
+    let f = FileSource::open(path).with_context(|| path.display().to_string())?;
+    drop_page_cache(f.file());
+    Ok(match model {
+        None => Arc::new(f),
+        Some(m) => Arc::new(ThrottledSource::new(f, m)),
+    })
+}

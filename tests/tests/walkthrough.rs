@@ -1,0 +1,74 @@
+//! The out-of-core runtime on a scene made by the builder, read from disk.
+
+use std::sync::Arc;
+
+use engine::camera::{PathKind, generate_path};
+use engine::render::NoneRenderer;
+use engine::runtime::{Mode, RuntimeParams, Walkthrough, run_path};
+use engine::{ByteSource, FileSource, SceneFile};
+use glam::Vec3;
+use hlod_builder::build::{BuildParams, build_file};
+use hlod_builder::scenegen::plant::{PlantParams, write_plant};
+
+#[test]
+fn three_modes_on_one_path_keep_the_budget_and_draw_the_same_fronts() {
+    let dir = tempfile::tempdir().unwrap();
+    let glb = dir.path().join("plant.glb");
+    let scene_path = dir.path().join("plant.hlod");
+    let p = PlantParams {
+        seed: 5,
+        objects: 200,
+        triangles: 150_000,
+    };
+    write_plant(&p, &glb).unwrap();
+    build_file(&glb, &scene_path, &BuildParams::default(), false).unwrap();
+    let scene = SceneFile::open(&scene_path).unwrap();
+    let skel = Arc::new(scene.skeleton().clone());
+    let data: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    let budget = data / 20;
+    let root = &skel.nodes[0];
+    let poses = generate_path(
+        PathKind::Flythrough,
+        Vec3::from(root.bbox_min),
+        Vec3::from(root.bbox_max),
+        400,
+    );
+    let mut fronts = Vec::new();
+    for mode in [Mode::Incore, Mode::NoPre, Mode::Pre] {
+        let source: Arc<dyn ByteSource> = Arc::new(FileSource::open(&scene_path).unwrap());
+        let params = RuntimeParams {
+            mode,
+            budget_bytes: budget,
+            tolerance_px: 1.0,
+            ..RuntimeParams::default()
+        };
+        let mut walk = Walkthrough::start(skel.clone(), source, params).unwrap();
+        let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 0.0).unwrap();
+        for f in &frames {
+            assert_eq!(
+                f.drawn_reps + f.substituted,
+                f.front_reps,
+                "{mode:?} frame {}",
+                f.frame
+            );
+            if mode == Mode::Incore {
+                assert_eq!(f.stage2_bytes, 0);
+                assert_eq!(f.substituted, 0);
+            } else {
+                assert!(f.max_resident_bytes <= budget, "{mode:?} frame {}", f.frame);
+            }
+        }
+        assert!(
+            frames.iter().any(|f| f.front_reps > 20),
+            "the path sees the plant"
+        );
+        fronts.push(
+            frames
+                .iter()
+                .map(|f| (f.front_reps, f.front_bytes))
+                .collect::<Vec<_>>(),
+        );
+    }
+    assert_eq!(fronts[0], fronts[1]);
+    assert_eq!(fronts[0], fronts[2]);
+}
