@@ -167,7 +167,10 @@ impl Loader {
                 // Unreadable reps are substituted at draw time, as in the other modes.
                 let _ = self.load(r, Purpose::Demand);
             }
-            self.stats = StageStats::default();
+            self.stats = StageStats {
+                max_resident_bytes: self.resident,
+                ..StageStats::default()
+            };
             return Ok(());
         }
         if root.rep_count == 0 {
@@ -184,7 +187,10 @@ impl Loader {
         match self.load(r, Purpose::Demand) {
             Ok(_) => {
                 self.keep = Some(r);
-                self.stats = StageStats::default();
+                self.stats = StageStats {
+                    max_resident_bytes: self.resident,
+                    ..StageStats::default()
+                };
                 Ok(())
             }
             Err(_) => Err(RuntimeError::RootUnreadable(format!("rep {r}"))),
