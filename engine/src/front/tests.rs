@@ -105,3 +105,82 @@ fn the_chosen_rep_is_the_coarsest_below_tolerance() {
         }
     }
 }
+
+mod properties {
+    use super::*;
+    use crate::testutil::build;
+    use proptest::prelude::*;
+
+    fn shape() -> impl Strategy<Value = (Vec<u32>, Vec<u32>)> {
+        prop::collection::vec((0u32..4, 1u32..4), 1..60).prop_map(|spec| {
+            let (mut children, mut reps, mut total) = (Vec::new(), Vec::new(), 1usize);
+            for (i, (c, r)) in spec.iter().enumerate() {
+                if i >= total {
+                    break;
+                }
+                let c = if total + (*c as usize) <= spec.len() {
+                    *c
+                } else {
+                    0
+                };
+                total += c as usize;
+                children.push(c);
+                reps.push(*r);
+            }
+            while children.len() < total {
+                children.push(0);
+                reps.push(1);
+            }
+            (reps, children)
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn the_front_is_a_visible_cut_of_coarsest_qualifying_reps(
+            (reps, children) in shape(),
+            eye in (-5.0f32..40.0, -3.0f32..6.0, -10.0f32..10.0),
+            yaw in -3.2f32..3.2,
+            tol in 0.5f32..20.0,
+        ) {
+            let s = build(&reps, &children).1;
+            let idx = FrontIndex::new(&s);
+            let v = View {
+                pose: Pose::from_yaw_pitch(Vec3::new(eye.0, eye.1, eye.2), yaw, 0.0, 60.0),
+                width_px: 640,
+                height_px: 480,
+                near: 0.01,
+                far: 1e4,
+            };
+            let f = v.frustum(0.0);
+            let mut front = Vec::new();
+            idx.compute(&v, &f, tol, &mut front);
+            let mut in_front = vec![false; s.nodes.len()];
+            for &r in &front {
+                let rec = &s.reps[r as usize];
+                let node = rec.node;
+                let n = &s.nodes[node as usize];
+                prop_assert!(!in_front[node as usize], "one rep per node");
+                in_front[node as usize] = true;
+                let (mn, mx) = idx.node_box(node);
+                prop_assert!(f.intersects(mn, mx));
+                let eps = idx.projected_error(&v, node, r);
+                let finest = r == n.first_rep + n.rep_count - 1;
+                prop_assert!(eps < tol || (n.is_leaf() && finest));
+                if r > n.first_rep {
+                    prop_assert!(idx.projected_error(&v, node, r - 1) >= tol, "a coarser rep qualifies");
+                }
+                // Every ancestor was refined because none of its reps qualified.
+                let mut up = n.parent;
+                while up != crate::format::NONE {
+                    let a = &s.nodes[up as usize];
+                    prop_assert!(!in_front[up as usize], "front reps on one root path");
+                    for ar in a.first_rep..a.first_rep + a.rep_count {
+                        prop_assert!(idx.projected_error(&v, up, ar) >= tol);
+                    }
+                    up = a.parent;
+                }
+            }
+        }
+    }
+}
