@@ -67,6 +67,9 @@ struct Args {
     /// Levels of PAR/CHD prefetched.
     #[arg(long, default_value_t = 1)]
     prefetch_depth: u8,
+    /// Largest share of the budget for prefetched reps not yet drawn.
+    #[arg(long, default_value_t = 0.15)]
+    speculative_share: f32,
     /// Output directory for CSVs, the summary and the path used.
     #[arg(long, default_value = "out/bench")]
     out: PathBuf,
@@ -183,6 +186,7 @@ fn run(a: Args) -> Result<()> {
             bins: a.bins,
             margin_deg: a.margin,
             depth: a.prefetch_depth,
+            speculative_share: a.speculative_share,
             ..PrefetchParams::default()
         },
         frame_period_s: if a.fps > 0.0 { 1.0 / a.fps } else { 0.0 },

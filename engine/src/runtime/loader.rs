@@ -67,6 +67,9 @@ pub(super) struct Loader {
     /// when node n was in the previous front / above a node that was.
     front_stamp: Vec<u32>,
     above_stamp: Vec<u32>,
+    /// Prefetched and not drawn since, and the bytes of those reps.
+    speculative: Vec<bool>,
+    speculative_bytes: u64,
 }
 
 impl Loader {
@@ -109,6 +112,8 @@ impl Loader {
             per_byte_s: 0.0,
             front_stamp: vec![0; skeleton_nodes],
             above_stamp: vec![0; skeleton_nodes],
+            speculative: vec![false; n],
+            speculative_bytes: 0,
         }
     }
 
@@ -206,6 +211,7 @@ impl Loader {
         self.pin_gen += 1;
         for &r in front {
             self.pinned[r as usize] = self.pin_gen;
+            self.set_speculative(r, false);
         }
         self.list.start_stage2();
         let mut missing = Vec::new();
@@ -291,6 +297,7 @@ impl Loader {
             if let Some(d) = &self.data[x as usize] {
                 let payload = d.clone();
                 self.pinned[x as usize] = self.pin_gen;
+                self.set_speculative(x, false);
                 self.list.access(x);
                 return self.send(Reply::Draw {
                     rep: x,
@@ -314,13 +321,15 @@ impl Loader {
             return false;
         }
         let target = budget - need;
+        let cap = (budget as f64 * f64::from(self.params.prefetch.speculative_share)) as u64;
+        let only_speculative = purpose == Purpose::Prefetch && self.speculative_bytes + need > cap;
         let mut victims = Vec::new();
         let mut after = self.resident;
         for (r, before_mark) in self.list.iter_from_head() {
             if purpose == Purpose::Prefetch && !before_mark {
                 break;
             }
-            if self.is_pinned(r) {
+            if self.is_pinned(r) || (only_speculative && !self.speculative[r as usize]) {
                 continue;
             }
             victims.push(r);
@@ -333,6 +342,7 @@ impl Loader {
             return false;
         }
         for r in victims {
+            self.set_speculative(r, false);
             self.data[r as usize] = None;
             self.list.remove(r);
             self.resident -= u64::from(self.skeleton.reps[r as usize].len);
@@ -388,9 +398,25 @@ impl Loader {
         self.list.access(r);
         match purpose {
             Purpose::Demand => self.stats.stage2_bytes += len,
-            Purpose::Prefetch => self.stats.prefetch_bytes += len,
+            Purpose::Prefetch => {
+                self.stats.prefetch_bytes += len;
+                self.set_speculative(r, true);
+            }
         }
         Ok(payload)
+    }
+
+    fn set_speculative(&mut self, r: RepId, on: bool) {
+        let flag = &mut self.speculative[r as usize];
+        if *flag != on {
+            *flag = on;
+            let len = u64::from(self.skeleton.reps[r as usize].len);
+            if on {
+                self.speculative_bytes += len;
+            } else {
+                self.speculative_bytes -= len;
+            }
+        }
     }
 
     /// Updates the read-cost estimates from one block read.

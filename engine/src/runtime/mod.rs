@@ -75,6 +75,10 @@ pub struct PrefetchParams {
     pub max_margin_deg: f32,
     /// Levels of PAR/CHD followed from the front.
     pub depth: u8,
+    /// Largest share of the budget held by speculative reps (prefetched and
+    /// not drawn since); at the cap a prefetch may evict only speculative reps,
+    /// so speculation cannot flush what was drawn before (prefetch pollution).
+    pub speculative_share: f32,
 }
 
 impl Default for PrefetchParams {
@@ -86,6 +90,7 @@ impl Default for PrefetchParams {
             margin_per_deg_turn: 4.0,
             max_margin_deg: 60.0,
             depth: 1,
+            speculative_share: 0.15,
         }
     }
 }
@@ -180,6 +185,9 @@ impl RuntimeParams {
             if !(v.is_finite() && v >= 0.0) {
                 return bad("F_I margins must be finite and non-negative");
             }
+        }
+        if !(p.speculative_share > 0.0 && p.speculative_share <= 1.0) {
+            return bad("the speculative share must be in (0, 1]");
         }
         if p.max_margin_deg > 80.0 {
             return bad("F_I margin at most 80 degrees");

@@ -209,6 +209,12 @@ fn start_up_errors_are_typed() {
     let mut p = params(Mode::Pre, 1 << 20);
     p.prefetch.delta_px = 0.5;
     assert!(Walkthrough::start(skel.clone(), src.clone(), p).is_err());
+    let mut p = params(Mode::Pre, 1 << 20);
+    p.prefetch.speculative_share = 0.0;
+    assert!(matches!(
+        Walkthrough::start(skel.clone(), src.clone(), p),
+        Err(RuntimeError::Params(_))
+    ));
     let bad = Arc::new(FaultySource::new(
         MemSource::new(vec![0u8; src.len() as usize]),
         vec![(0, u64::MAX)],
