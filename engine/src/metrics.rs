@@ -36,16 +36,20 @@ pub struct FrameMetrics {
     pub miss_hier: u32,
     /// Misses of newly visible parts of the scene.
     pub miss_new: u32,
+    /// Time P_I spent reading for Stage II and for prefetching since the
+    /// previous frame (the disk's busy time).
+    pub stage2_io_ms: f64,
+    pub prefetch_io_ms: f64,
 }
 
 /// CSV header matching [`FrameMetrics::csv_row`].
-pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new";
+pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms";
 
 impl FrameMetrics {
     /// One CSV line (no newline).
     pub fn csv_row(&self) -> String {
         format!(
-            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3}",
             self.frame,
             self.mode,
             self.frame_ms,
@@ -68,7 +72,9 @@ impl FrameMetrics {
             self.nodes_visited,
             self.miss_lod,
             self.miss_hier,
-            self.miss_new
+            self.miss_new,
+            self.stage2_io_ms,
+            self.prefetch_io_ms
         )
     }
 }

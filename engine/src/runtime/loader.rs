@@ -377,7 +377,12 @@ impl Loader {
                 self.resident -= len;
                 return Err(self.fail(r, &e.to_string()));
             }
-            self.learn(done == 0, end - done, t.elapsed());
+            let took = t.elapsed();
+            self.learn(done == 0, end - done, took);
+            match purpose {
+                Purpose::Demand => self.stats.stage2_io_s += took.as_secs_f64(),
+                Purpose::Prefetch => self.stats.prefetch_io_s += took.as_secs_f64(),
+            }
             done = end;
             if purpose == Purpose::Prefetch
                 && done < buf.len()

@@ -241,6 +241,8 @@ struct StageStats {
     miss_lod: u32,
     miss_hier: u32,
     miss_new: u32,
+    stage2_io_s: f64,
+    prefetch_io_s: f64,
 }
 
 /// P_R: drives frames against a running P_I.
@@ -427,6 +429,8 @@ impl Walkthrough {
         m.miss_lod = stats.miss_lod;
         m.miss_hier = stats.miss_hier;
         m.miss_new = stats.miss_new;
+        m.stage2_io_ms = stats.stage2_io_s * 1e3;
+        m.prefetch_io_ms = stats.prefetch_io_s * 1e3;
         m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok(m)
     }
