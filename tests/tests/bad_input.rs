@@ -147,3 +147,24 @@ fn absurd_parameters_are_rejected_before_any_work() {
     }
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
+#[test]
+fn missing_external_buffer_names_the_buffer_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let gltf = dir.path().join("engine.gltf");
+    std::fs::copy(
+        data_dir().join("2CylinderEngine/2CylinderEngine.gltf"),
+        &gltf,
+    )
+    .unwrap();
+    let err = try_build(&gltf, dir.path()).unwrap_err().to_string();
+    assert!(
+        err.contains("engine.gltf") && err.contains("2CylinderEngine0.bin"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "no output left"
+    );
+}
