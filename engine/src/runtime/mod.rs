@@ -439,6 +439,12 @@ impl Walkthrough {
 impl Drop for Walkthrough {
     fn drop(&mut self) {
         let _ = self.cmd.send(Cmd::Shutdown);
+        // Dropping the receiver first unblocks a P_I stuck sending a reply
+        // (P_R unwinding mid-frame), so the join cannot hang.
+        drop(std::mem::replace(
+            &mut self.replies,
+            crossbeam_channel::never(),
+        ));
         if let Some(h) = self.loader.take() {
             let _ = h.join();
         }

@@ -225,3 +225,33 @@ fn start_up_errors_are_typed() {
     ));
     assert!(Mode::parse("fast").is_err());
 }
+
+/// A renderer that panics after `n` draws.
+struct Panicky(u32);
+
+impl Renderer for Panicky {
+    fn begin_frame(&mut self, _view: &crate::camera::View) {}
+    fn draw(&mut self, _rep: RepId, _record: &crate::format::RepRecord, _payload: &Arc<[u8]>) {
+        self.0 = self.0.checked_sub(1).expect("renderer failure");
+    }
+    fn end_frame(&mut self) {}
+    fn name(&self) -> &'static str {
+        "panicky"
+    }
+}
+
+#[test]
+fn a_renderer_panic_mid_frame_does_not_hang_shutdown() {
+    // Many reps per frame so that P_I fills the reply channel while P_R unwinds.
+    let (skel, src) = wide(1024);
+    let walk =
+        std::sync::Mutex::new(Walkthrough::start(skel, src, params(Mode::Incore, 1)).unwrap());
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let mut w = walk.lock().unwrap();
+        let mut renderer = Panicky(3);
+        let along_the_row = pose(-2.0, 0.5, 0.5, -std::f32::consts::FRAC_PI_2);
+        let _ = w.frame(&along_the_row, &mut renderer);
+    }));
+    assert!(r.is_err());
+    drop(walk); // must return
+}
