@@ -86,11 +86,35 @@ pub fn load(path: &Path) -> Result<Imported, ImportError> {
     from_gltf(gltf, path.parent().unwrap_or(Path::new(".")), path)
 }
 
+/// Parses and validates glTF or GLB bytes.
+///
+/// `gltf-json` 1.4.1's validation indexes a primitive's POSITION accessor
+/// before checking that it exists (a panic on a dangling index), so accessor
+/// references of primitives are checked here first.
 fn parse(bytes: &[u8], path: &Path) -> Result<gltf::Gltf, ImportError> {
-    gltf::Gltf::from_slice(bytes).map_err(|source| ImportError::Parse {
+    let parse_err = |source| ImportError::Parse {
         path: path.to_path_buf(),
         source,
-    })
+    };
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(parse_err)?;
+    let root = document.into_json();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let refs = prim.attributes.values().chain(prim.indices.as_ref());
+            if let Some(bad) = refs.map(|a| a.value()).find(|&a| a >= root.accessors.len()) {
+                return Err(ImportError::Invalid {
+                    path: path.to_path_buf(),
+                    what: format!(
+                        "mesh {m} primitive {p} refers to accessor {bad}, but there are {}",
+                        root.accessors.len()
+                    ),
+                });
+            }
+        }
+    }
+    let document = gltf::Document::from_json(root).map_err(parse_err)?;
+    Ok(gltf::Gltf { document, blob })
 }
 
 /// Loads glTF or GLB bytes; external buffers are resolved against `base_dir`,
