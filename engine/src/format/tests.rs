@@ -137,3 +137,33 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+    /// Hostile skeletons with valid checksums: an error or a scene, never a panic.
+    #[test]
+    fn edited_skeletons_with_valid_checksums_never_panic(
+        edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..6),
+    ) {
+        let (mut bytes, _) = build(&[1, 2, 3, 1], &[3, 0, 0, 0]);
+        let mut h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..128]);
+        let (start, end) = (h.skeleton_offset as usize, bytes.len());
+        for (at, v) in edits {
+            bytes[start + at.index(end - start)] = v;
+        }
+        h.skeleton_crc = crc32fast::hash(&bytes[start..end]);
+        h.header_crc = 0;
+        h.header_crc = crc32fast::hash(bytemuck::bytes_of(&h));
+        bytes[..128].copy_from_slice(bytemuck::bytes_of(&h));
+        let result = std::panic::catch_unwind(|| {
+            if let Ok(scene) = SceneFile::from_source(MemSource::new(bytes)) {
+                let s = scene.skeleton();
+                for r in 0..s.reps.len() as u32 {
+                    let _ = scene.read_rep(r);
+                    let _ = (s.par(r), s.chd(r), s.asc(r, 3), s.dsc(r, 3));
+                }
+            }
+        });
+        prop_assert!(result.is_ok(), "the reader panicked");
+    }
+}
