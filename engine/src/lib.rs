@@ -13,18 +13,28 @@
 //! implementation.
 //!
 //! Modules:
-//! - [`format`]: the versioned on-disk scene format — `repr(C)` records with
+//! - [`format`](mod@format): the versioned on-disk scene format — `repr(C)` records with
 //!   asserted sizes, the [`SceneWriter`] used by the builder, the validating
 //!   [`SceneFile`] reader and the rep payload codec ([`RepMesh`]).
 //! - [`skeleton`]: the in-core hierarchy, the paper's PAR/CHD/ASC/DSC relations
 //!   over object-reps and [`Skeleton::validate`].
-//! - [`io`]: [`ByteSource`] and its implementations.
+//! - [`io`] and [`disk`]: [`ByteSource`] (file, in-memory) and the disk models
+//!   behind it (throttled device, fault injection, page-cache drop).
+//! - [`camera`]: poses, views, frustum, projected error, the camera path format
+//!   and path generators; [`front`]: the per-frame front (frustum and
+//!   simplification culling).
+//! - [`cache`] (StartTail InMemoryList), [`prefetch`] (bins, AngPr, Priority)
+//!   and [`runtime`]: P_R ([`runtime::Walkthrough`]) and the P_I loader thread
+//!   under a hard byte budget, in `incore`, `nopre` and `pre` modes.
+//! - [`metrics`] (per-frame CSV, summaries), [`render`] (the renderer trait and
+//!   the `none` renderer) and [`cli`] (shared plumbing of the binaries).
 //!
-//! Nothing on the format path depends on a GPU API: the renderer, when present,
-//! is the only module that touches wgpu.
+//! Nothing here depends on a GPU API: the wgpu renderer, when it lands, is the
+//! only module that touches wgpu, behind [`render::Renderer`].
 
 pub mod cache;
 pub mod camera;
+pub mod cli;
 pub mod disk;
 pub mod format;
 pub mod front;

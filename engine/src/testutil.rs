@@ -104,3 +104,32 @@ pub fn build(rep_counts: &[u32], children: &[u32]) -> (Vec<u8>, Skeleton) {
     let bytes = writer.finish(&skeleton, &meta).unwrap().into_inner();
     (bytes, skeleton)
 }
+
+/// Random tree shapes for [`build`]: (rep counts, child counts), breadth-first,
+/// up to `max_nodes` nodes.
+pub fn shape_strategy(
+    max_nodes: usize,
+) -> impl proptest::strategy::Strategy<Value = (Vec<u32>, Vec<u32>)> {
+    use proptest::prelude::*;
+    prop::collection::vec((0u32..4, 1u32..4), 1..max_nodes).prop_map(|spec| {
+        let (mut children, mut reps, mut total) = (Vec::new(), Vec::new(), 1usize);
+        for (i, (c, r)) in spec.iter().enumerate() {
+            if i >= total {
+                break;
+            }
+            let c = if total + (*c as usize) <= spec.len() {
+                *c
+            } else {
+                0
+            };
+            total += c as usize;
+            children.push(c);
+            reps.push(*r);
+        }
+        while children.len() < total {
+            children.push(0);
+            reps.push(1);
+        }
+        (reps, children)
+    })
+}

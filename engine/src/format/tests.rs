@@ -95,36 +95,9 @@ fn rejects_other_files_and_versions() {
     assert!(SceneFile::from_source(MemSource::new(b)).is_err());
 }
 
-/// Random tree shapes: breadth-first child counts and rep counts.
-fn shape() -> impl Strategy<Value = (Vec<u32>, Vec<u32>)> {
-    prop::collection::vec((0u32..4, 1u32..4), 1..40).prop_map(|spec| {
-        let mut children = Vec::new();
-        let mut reps = Vec::new();
-        let mut total = 1usize;
-        for (i, (c, r)) in spec.iter().enumerate() {
-            if i >= total {
-                break;
-            }
-            let c = if total + (*c as usize) <= spec.len() {
-                *c
-            } else {
-                0
-            };
-            total += c as usize;
-            children.push(c);
-            reps.push(*r);
-        }
-        while children.len() < total {
-            children.push(0);
-            reps.push(1);
-        }
-        (reps, children)
-    })
-}
-
 proptest! {
     #[test]
-    fn random_scenes_round_trip((reps, children) in shape()) {
+    fn random_scenes_round_trip((reps, children) in crate::testutil::shape_strategy(40)) {
         let (bytes, skeleton) = build(&reps, &children);
         let scene = SceneFile::from_source(MemSource::new(bytes)).unwrap();
         prop_assert_eq!(scene.skeleton(), &skeleton);

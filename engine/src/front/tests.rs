@@ -111,34 +111,10 @@ mod properties {
     use crate::testutil::build;
     use proptest::prelude::*;
 
-    fn shape() -> impl Strategy<Value = (Vec<u32>, Vec<u32>)> {
-        prop::collection::vec((0u32..4, 1u32..4), 1..60).prop_map(|spec| {
-            let (mut children, mut reps, mut total) = (Vec::new(), Vec::new(), 1usize);
-            for (i, (c, r)) in spec.iter().enumerate() {
-                if i >= total {
-                    break;
-                }
-                let c = if total + (*c as usize) <= spec.len() {
-                    *c
-                } else {
-                    0
-                };
-                total += c as usize;
-                children.push(c);
-                reps.push(*r);
-            }
-            while children.len() < total {
-                children.push(0);
-                reps.push(1);
-            }
-            (reps, children)
-        })
-    }
-
     proptest! {
         #[test]
         fn the_front_is_a_visible_cut_of_coarsest_qualifying_reps(
-            (reps, children) in shape(),
+            (reps, children) in crate::testutil::shape_strategy(60),
             eye in (-5.0f32..40.0, -3.0f32..6.0, -10.0f32..10.0),
             yaw in -3.2f32..3.2,
             tol in 0.5f32..20.0,
