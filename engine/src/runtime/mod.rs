@@ -4,7 +4,7 @@
 //! keeps prefetching for the previous frame), sends P_I a fetch command with
 //! the front, draws the resident reps (L_I) as P_I hands them over, then each
 //! missing rep (L_O) as P_I loads it (Stage II), and returns the frame's
-X the resident set: the StartTail
+//! metrics. P_I (the `loader` module) owns the resident set: the StartTail
 //! InMemoryList, the byte budget (never exceeded: reps being loaded count),
 //! preemptible block-wise loading, and in `pre` mode binned priority
 //! prefetching with the enlarged frustum in Stages III and I.
