@@ -120,6 +120,38 @@ fn runs_and_rejects_bad_input_clearly() {
     let csv = std::fs::read_to_string(d.join("o/pre.csv")).unwrap();
     assert_eq!(csv.lines().count(), 31);
 
+    let out = bench(
+        d,
+        &[
+            "s.hlod",
+            "--frames",
+            "10",
+            "--fps",
+            "0",
+            "--budgets",
+            "1MiB,2MiB",
+            "--modes",
+            "incore,pre",
+            "--out",
+            "sweep",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in ["incore.csv", "pre-1.00MiB.csv", "pre-2.00MiB.csv"] {
+        assert!(d.join("sweep").join(f).exists(), "{f}");
+    }
+    let table = std::fs::read_to_string(d.join("sweep/summary.md")).unwrap();
+    assert_eq!(
+        table.lines().filter(|l| l.starts_with("| pre |")).count(),
+        2,
+        "{table}"
+    );
+    assert_fails(&bench(d, &["s.hlod", "--budgets", "1MiB,x"]), "--budget");
+
     assert_fails(
         &bench(d, &["s.hlod", "--modes", "incore,fast"]),
         "unknown mode \"fast\"",

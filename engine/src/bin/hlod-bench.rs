@@ -37,6 +37,9 @@ struct Args {
     /// Memory footprint: bytes, with KiB/MiB/GiB, or a percentage of the rep data (e.g. 2.5%).
     #[arg(long, default_value = "2.5%")]
     budget: String,
+    /// A sweep over several footprints (comma-separated, like --budget); replaces --budget.
+    #[arg(long)]
+    budgets: Option<String>,
     /// Error tolerance ε in pixels.
     #[arg(long, default_value_t = 2.0)]
     tolerance: f32,
@@ -140,7 +143,14 @@ fn run(a: Args) -> Result<()> {
     let scene = SceneFile::open(&a.scene).with_context(|| a.scene.display().to_string())?;
     let skel = Arc::new(scene.skeleton().clone());
     let data_bytes: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
-    let budget = parse_budget(&a.budget, data_bytes)?;
+    let budgets: Vec<u64> = match &a.budgets {
+        Some(list) => list
+            .split(',')
+            .map(|b| parse_budget(b, data_bytes))
+            .collect::<Result<_>>()?,
+        None => vec![parse_budget(&a.budget, data_bytes)?],
+    };
+    let budget = budgets[0];
     let root = &skel.nodes[0];
     let (min, max) = (Vec3::from(root.bbox_min), Vec3::from(root.bbox_max));
     let poses: Vec<Pose> = match &a.path {
@@ -199,14 +209,31 @@ fn run(a: Args) -> Result<()> {
         f64::INFINITY
     };
     let mut rows: Vec<Summary> = Vec::new();
-    for mode in modes {
+    let runs = budgets
+        .iter()
+        .enumerate()
+        .flat_map(|(k, &b)| modes.iter().map(move |&m| (k, b, m)));
+    for (k, budget, mode) in runs {
+        if mode == Mode::Incore && k > 0 {
+            continue; // independent of the footprint
+        }
         let source = open_source(&a.scene, if mode == Mode::Incore { None } else { disk })?;
-        let mut walk = Walkthrough::start(skel.clone(), source, RuntimeParams { mode, ..params })
+        let params = RuntimeParams {
+            mode,
+            budget_bytes: budget,
+            ..params
+        };
+        let mut walk = Walkthrough::start(skel.clone(), source, params)
             .with_context(|| format!("starting mode {}", mode.name()))?;
         let mut renderer = NoneRenderer::new(a.render_rate);
         let frames = run_path(&mut walk, &poses, &mut renderer, a.fps)?;
         drop(walk);
-        std::fs::write(a.out.join(format!("{}.csv", mode.name())), to_csv(&frames))?;
+        let name = if budgets.len() > 1 && mode != Mode::Incore {
+            format!("{}-{:.2}MiB.csv", mode.name(), budget as f64 / 1048576.0)
+        } else {
+            format!("{}.csv", mode.name())
+        };
+        std::fs::write(a.out.join(name), to_csv(&frames))?;
         let over = frames
             .iter()
             .filter(|f| f.max_resident_bytes > budget)
