@@ -30,7 +30,6 @@ pub struct FrontIndex {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FrontStats {
     pub nodes_visited: u32,
-    pub nodes_culled: u32,
 }
 
 impl FrontIndex {
@@ -70,7 +69,6 @@ impl FrontIndex {
             stats.nodes_visited += 1;
             let (mn, mx) = (self.min[i], self.max[i]);
             if !frustum.intersects(mn, mx) {
-                stats.nodes_culled += 1;
                 continue;
             }
             let dist = box_distance(eye, mn, mx).max(view.near);

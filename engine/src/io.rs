@@ -88,11 +88,6 @@ impl MemSource {
             bytes: bytes.into(),
         }
     }
-
-    /// The whole buffer.
-    pub fn bytes(&self) -> &[u8] {
-        &self.bytes
-    }
 }
 
 impl ByteSource for MemSource {

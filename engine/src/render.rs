@@ -42,11 +42,6 @@ impl NoneRenderer {
         }
     }
 
-    /// Triangles drawn in the current (or last) frame.
-    pub fn frame_tris(&self) -> u64 {
-        self.frame_tris
-    }
-
     fn pay(&mut self, threshold: Duration) {
         if self.debt >= threshold {
             let t = Instant::now();

@@ -55,12 +55,6 @@ impl Skeleton {
         self.nodes.first()
     }
 
-    /// `N[i]` of node `node` as a global id, if it exists.
-    pub fn rep_of(&self, node: u32, i: u32) -> Option<RepId> {
-        let n = self.nodes.get(node as usize)?;
-        (i < n.rep_count).then_some(n.first_rep + i)
-    }
-
     /// Children node ids of `node`.
     pub fn children(&self, node: u32) -> std::ops::Range<u32> {
         let n = &self.nodes[node as usize];

@@ -121,15 +121,6 @@ impl RepMesh {
         p
     }
 
-    /// The dequantised box `(min, max)` of the quantisation grid.
-    pub fn quant_bounds(&self) -> ([f32; 3], [f32; 3]) {
-        let mut max = [0f32; 3];
-        for (a, m) in max.iter_mut().enumerate() {
-            *m = self.quant_min[a] + 65535.0 * self.quant_scale[a];
-        }
-        (self.quant_min, max)
-    }
-
     /// Triangles in the mesh.
     pub fn tri_count(&self) -> usize {
         self.indices.len() / 3

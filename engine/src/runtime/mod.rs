@@ -256,7 +256,6 @@ pub struct Walkthrough {
     drawn_stamp: Vec<u32>,
     frame: u32,
     last_pose: Option<Pose>,
-    front: Vec<RepId>,
 }
 
 impl std::fmt::Debug for Walkthrough {
@@ -315,7 +314,6 @@ impl Walkthrough {
             loader: Some(handle),
             frame: 0,
             last_pose: None,
-            front: Vec::new(),
         })
     }
 
@@ -335,11 +333,6 @@ impl Walkthrough {
         }
     }
 
-    /// The front of the last frame.
-    pub fn last_front(&self) -> &[RepId] {
-        &self.front
-    }
-
     /// Renders one frame from `pose`.
     pub fn frame(
         &mut self,
@@ -348,7 +341,7 @@ impl Walkthrough {
     ) -> Result<FrameMetrics, RuntimeError> {
         let t0 = Instant::now();
         let view = self.view(pose);
-        let mut front = std::mem::take(&mut self.front);
+        let mut front = Vec::new();
         let fs = self.index.compute(
             &view,
             &view.frustum(0.0),
@@ -417,7 +410,6 @@ impl Walkthrough {
             }
         };
         renderer.end_frame();
-        self.front = Arc::try_unwrap(front).unwrap_or_else(|a| (*a).clone());
         m.wait_ms = wait;
         m.missing_reps = stats.missing_reps;
         m.stage2_bytes = stats.stage2_bytes;
