@@ -7,6 +7,10 @@ need=()
 command -v c++ >/dev/null 2>&1 || need+=(g++)          # meshopt's vendored C++
 command -v cc >/dev/null 2>&1 || need+=(gcc)
 command -v pkg-config >/dev/null 2>&1 || need+=(pkg-config)
+# Software Vulkan (lavapipe) so that the wgpu renderer runs without a GPU.
+has_pkg() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q "install ok installed"; }
+has_pkg mesa-vulkan-drivers || need+=(mesa-vulkan-drivers)
+has_pkg libvulkan1 || need+=(libvulkan1)
 
 if [ ${#need[@]} -gt 0 ]; then
   echo "setup: installing ${need[*]}"

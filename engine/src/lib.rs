@@ -38,6 +38,8 @@ pub mod cli;
 pub mod disk;
 pub mod format;
 pub mod front;
+pub mod gpu;
+pub mod image;
 pub mod io;
 pub mod metrics;
 pub mod prefetch;

@@ -17,10 +17,17 @@ use crate::skeleton::RepId;
 pub trait Renderer {
     /// Starts a frame.
     fn begin_frame(&mut self, view: &View);
-    /// Draws one rep (its raw payload as stored in the scene file).
-    fn draw(&mut self, rep: RepId, record: &RepRecord, payload: &Arc<[u8]>);
+    /// Draws one rep (its raw payload as stored in the scene file);
+    /// `substitute` when it stands in for a missing front rep.
+    fn draw(&mut self, rep: RepId, record: &RepRecord, payload: &Arc<[u8]>, substitute: bool);
+    /// P_I evicted `rep`: drop any copy of it (GPU memory follows the budget).
+    fn evict(&mut self, _rep: RepId) {}
     /// Finishes the frame (presents, or waits for the GPU).
     fn end_frame(&mut self);
+    /// Rep geometry bytes held on the GPU.
+    fn gpu_bytes(&self) -> u64 {
+        0
+    }
     /// Short name for reports.
     fn name(&self) -> &'static str;
 }
@@ -57,7 +64,7 @@ impl Renderer for NoneRenderer {
         self.debt = Duration::ZERO;
     }
 
-    fn draw(&mut self, _rep: RepId, record: &RepRecord, _payload: &Arc<[u8]>) {
+    fn draw(&mut self, _rep: RepId, record: &RepRecord, _payload: &Arc<[u8]>, _sub: bool) {
         self.frame_tris += u64::from(record.tri_count);
         if self.tris_per_sec > 0.0 {
             self.debt += Duration::from_secs_f64(f64::from(record.tri_count) / self.tris_per_sec);

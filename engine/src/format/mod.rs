@@ -20,7 +20,7 @@ mod rep;
 mod writer;
 
 pub use reader::{SceneFile, SceneMeta, check_rep_crc};
-pub use rep::{PackedVertex, RepHeader, RepMesh, quantize_unit_normal};
+pub use rep::{PackedVertex, REP_MAGIC, RepHeader, RepMesh, quantize_unit_normal};
 pub use writer::SceneWriter;
 
 use bytemuck::{Pod, Zeroable};

@@ -70,6 +70,8 @@ pub(super) struct Loader {
     /// Prefetched and not drawn since, and the bytes of those reps.
     speculative: Vec<bool>,
     speculative_bytes: u64,
+    /// Evicted since the last reply: sent ahead of the next one.
+    evicted: Vec<RepId>,
 }
 
 impl Loader {
@@ -114,6 +116,7 @@ impl Loader {
             above_stamp: vec![0; skeleton_nodes],
             speculative: vec![false; n],
             speculative_bytes: 0,
+            evicted: Vec::new(),
         }
     }
 
@@ -286,7 +289,11 @@ impl Loader {
         }
     }
 
-    fn send(&self, r: Reply) -> Result<(), ()> {
+    fn send(&mut self, r: Reply) -> Result<(), ()> {
+        if !self.evicted.is_empty() {
+            let ev = std::mem::take(&mut self.evicted);
+            self.replies.send(Reply::Evicted(ev)).map_err(|_| ())?;
+        }
         self.replies.send(r).map_err(|_| ())
     }
 
@@ -347,6 +354,7 @@ impl Loader {
             self.list.remove(r);
             self.resident -= u64::from(self.skeleton.reps[r as usize].len);
             self.stats.evictions += 1;
+            self.evicted.push(r);
         }
         true
     }

@@ -224,6 +224,8 @@ enum Reply {
     },
     /// Nothing resident can stand in for `for_rep` (only without a root rep).
     Missing,
+    /// P_I evicted these reps (sent before any later `Draw`).
+    Evicted(Vec<RepId>),
     /// Stage II is over.
     Done(StageStats),
 }
@@ -402,14 +404,20 @@ impl Walkthrough {
                         self.drawn_stamp[rep as usize] = stamp;
                         let rec = &self.skeleton.reps[rep as usize];
                         m.drawn_tris += u64::from(rec.tri_count);
-                        renderer.draw(rep, rec, &payload);
+                        renderer.draw(rep, rec, &payload, rep != for_rep);
                     }
                 }
                 Reply::Missing => m.substituted += 1,
+                Reply::Evicted(reps) => {
+                    for r in reps {
+                        renderer.evict(r);
+                    }
+                }
                 Reply::Done(s) => break s,
             }
         };
         renderer.end_frame();
+        m.gpu_bytes = renderer.gpu_bytes();
         m.wait_ms = wait;
         m.missing_reps = stats.missing_reps;
         m.stage2_bytes = stats.stage2_bytes;

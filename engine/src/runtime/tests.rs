@@ -231,7 +231,13 @@ struct Panicky(u32);
 
 impl Renderer for Panicky {
     fn begin_frame(&mut self, _view: &crate::camera::View) {}
-    fn draw(&mut self, _rep: RepId, _record: &crate::format::RepRecord, _payload: &Arc<[u8]>) {
+    fn draw(
+        &mut self,
+        _rep: RepId,
+        _record: &crate::format::RepRecord,
+        _payload: &Arc<[u8]>,
+        _substitute: bool,
+    ) {
         self.0 = self.0.checked_sub(1).expect("renderer failure");
     }
     fn end_frame(&mut self) {}

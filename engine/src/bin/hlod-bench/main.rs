@@ -1,5 +1,9 @@
 //! `hlod-bench`: replays a camera path through a built scene in each mode
-//! (`incore`, `nopre`, `pre`) and reports per-frame metrics and a summary.
+//! (`incore`, `nopre`, `pre`) and reports per-frame metrics, a summary, PNG
+//! plots (`plots`) and, with the wgpu renderer, the image quality of the
+//! out-of-core frames against the in-core ones (PSNR on sampled frames).
+
+mod plots;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -9,8 +13,11 @@ use anyhow::{Context, Result, bail};
 use clap::Parser;
 use engine::camera::{PathKind, Pose, format_path, generate_path, read_path};
 use engine::disk::{DiskModel, ThrottledSource, drop_page_cache};
+use engine::gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
+use engine::image::RgbaImage;
+use engine::metrics::FrameMetrics;
 use engine::metrics::{Summary, summarize, summary_table, to_csv};
-use engine::render::NoneRenderer;
+use engine::render::{NoneRenderer, Renderer};
 use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path};
 use engine::{ByteSource, FileSource, SceneFile};
 use glam::Vec3;
@@ -43,8 +50,19 @@ struct Args {
     /// Error tolerance ε in pixels.
     #[arg(long, default_value_t = 2.0)]
     tolerance: f32,
+    /// none (no rasterisation) or wgpu (a GPU, or lavapipe without one).
     #[arg(long, default_value = "none")]
     renderer: String,
+    /// Debug colouring of the wgpu renderer: object, lod, kind or substituted.
+    #[arg(long, default_value = "object")]
+    colouring: String,
+    /// With wgpu: read back every N-th frame and compare it with the in-core
+    /// frame (PSNR); 0 = off.
+    #[arg(long, default_value_t = 30)]
+    psnr_every: u32,
+    /// With wgpu: save the sampled frames as PNG under OUT/frames.
+    #[arg(long)]
+    save_frames: bool,
     /// Modelled speed of the none renderer in triangles per second (0: free).
     #[arg(long, default_value_t = 0.0)]
     render_rate: f64,
@@ -73,7 +91,7 @@ struct Args {
     /// Largest share of the budget for prefetched reps not yet drawn.
     #[arg(long, default_value_t = 0.15)]
     speculative_share: f32,
-    /// Output directory for CSVs, the summary and the path used.
+    /// Output directory for CSVs, the summary, plots and the path used.
     #[arg(long, default_value = "out/bench")]
     out: PathBuf,
 }
@@ -116,13 +134,17 @@ fn parse_budget(s: &str, data_bytes: u64) -> Result<u64> {
 }
 
 fn run(a: Args) -> Result<()> {
-    if a.renderer != "none" {
-        bail!(
-            "--renderer {:?}: only `none` is available in this build (the wgpu renderer is not implemented yet)",
-            a.renderer
-        );
-    }
-    let modes: Vec<Mode> = a
+    let colouring = Colouring::parse(&a.colouring).map_err(anyhow::Error::msg)?;
+    let gpu = match a.renderer.as_str() {
+        "none" => None,
+        "wgpu" => {
+            let ctx = GpuContext::new()?;
+            println!("GPU adapter: {}", ctx.describe());
+            Some(ctx)
+        }
+        r => bail!("--renderer {r:?}: use none or wgpu"),
+    };
+    let mut modes: Vec<Mode> = a
         .modes
         .split(',')
         .map(|m| Mode::parse(m.trim()))
@@ -131,6 +153,9 @@ fn run(a: Args) -> Result<()> {
     if modes.is_empty() {
         bail!("--modes is empty");
     }
+    // In-core first: its frames are the reference for image quality.
+    modes.sort_by_key(|&m| m != Mode::Incore);
+    modes.dedup();
     let disk = if a.disk == "file" {
         None
     } else {
@@ -209,6 +234,10 @@ fn run(a: Args) -> Result<()> {
         f64::INFINITY
     };
     let mut rows: Vec<Summary> = Vec::new();
+    let mut done: Vec<(Mode, u64, Vec<FrameMetrics>)> = Vec::new();
+    let mut reference: Vec<(u32, RgbaImage)> = Vec::new();
+    let mut quality = String::from("mode,budget_bytes,frame,psnr_db,substituted\n");
+    let mut quality_rows: Vec<String> = Vec::new();
     let runs = budgets
         .iter()
         .enumerate()
@@ -225,18 +254,42 @@ fn run(a: Args) -> Result<()> {
         };
         let mut walk = Walkthrough::start(skel.clone(), source, params)
             .with_context(|| format!("starting mode {}", mode.name()))?;
-        let mut renderer = NoneRenderer::new(a.render_rate);
-        let frames = run_path(&mut walk, &poses, &mut renderer, a.fps)?;
-        drop(walk);
-        let name = if budgets.len() > 1 && mode != Mode::Incore {
-            format!("{}-{:.2}MiB.csv", mode.name(), budget as f64 / 1048576.0)
-        } else {
-            format!("{}.csv", mode.name())
+        let mut gpu_r = match &gpu {
+            Some(ctx) => {
+                let mut r = GpuRenderer::new(
+                    ctx.clone(),
+                    RendererConfig {
+                        width: a.width,
+                        height: a.height,
+                        capacity_bytes: if mode == Mode::Incore {
+                            data_bytes
+                        } else {
+                            budget
+                        },
+                        colouring,
+                    },
+                )?;
+                r.capture_every(a.psnr_every);
+                Some(r)
+            }
+            None => None,
         };
-        std::fs::write(a.out.join(name), to_csv(&frames))?;
+        let mut none_r = NoneRenderer::new(a.render_rate);
+        let renderer: &mut dyn Renderer = match &mut gpu_r {
+            Some(r) => r,
+            None => &mut none_r,
+        };
+        let frames = run_path(&mut walk, &poses, renderer, a.fps)?;
+        drop(walk);
+        let tag = if budgets.len() > 1 && mode != Mode::Incore {
+            format!("{}-{:.2}MiB", mode.name(), budget as f64 / 1048576.0)
+        } else {
+            mode.name().to_string()
+        };
+        std::fs::write(a.out.join(format!("{tag}.csv")), to_csv(&frames))?;
         let over = frames
             .iter()
-            .filter(|f| f.max_resident_bytes > budget)
+            .filter(|f| f.max_resident_bytes > budget || f.gpu_bytes > budget)
             .count();
         if mode != Mode::Incore && over > 0 {
             bail!(
@@ -244,16 +297,145 @@ fn run(a: Args) -> Result<()> {
                 mode.name()
             );
         }
+        if let Some(r) = &mut gpu_r {
+            let errors = r.context().take_errors();
+            if !errors.is_empty() {
+                bail!("GPU errors in mode {}: {}", mode.name(), errors.join("; "));
+            }
+            let caps = r.take_captures();
+            if a.save_frames {
+                let dir = a.out.join("frames");
+                std::fs::create_dir_all(&dir)?;
+                for (i, img) in &caps {
+                    img.save_png(&dir.join(format!("{tag}-{i:05}.png")))?;
+                }
+            }
+            if mode == Mode::Incore {
+                reference = caps;
+            } else if !reference.is_empty() {
+                let q = compare(&caps, &reference, &frames);
+                for (i, psnr, sub) in &q {
+                    quality.push_str(&format!("{},{budget},{i},{psnr:.3},{sub}\n", mode.name()));
+                }
+                quality_rows.push(quality_row(&tag, &q));
+            }
+        }
         rows.push(summarize(&frames, period_ms));
-        eprintln!("{}: done", mode.name());
+        eprintln!("{tag}: done");
+        done.push((mode, budget, frames));
     }
     let table = summary_table(&rows);
     println!("\n{table}");
-    std::fs::write(a.out.join("summary.md"), &table)?;
+    let mut report = table.clone();
+    if !quality_rows.is_empty() {
+        let q = format!(
+            "\nImage quality against in-core (every {} frames):\n\n| run | sampled | identical | min PSNR dB | mean PSNR dB (differing frames) |\n|---|---:|---:|---:|---:|\n{}",
+            a.psnr_every,
+            quality_rows.concat()
+        );
+        println!("{q}");
+        report.push_str(&q);
+        std::fs::write(a.out.join("psnr.csv"), &quality)?;
+    }
+    std::fs::write(a.out.join("summary.md"), &report)?;
+    write_plots(&a.out, &done, budget, period_ms)?;
     println!(
-        "per-frame CSVs, summary.md and path.txt in {}",
+        "per-frame CSVs, summary.md, plots (*.png) and path.txt in {}",
         a.out.display()
     );
+    Ok(())
+}
+
+/// (frame, PSNR against the in-core frame, substituted reps) per sample.
+fn compare(
+    caps: &[(u32, RgbaImage)],
+    reference: &[(u32, RgbaImage)],
+    frames: &[FrameMetrics],
+) -> Vec<(u32, f64, u32)> {
+    caps.iter()
+        .filter_map(|(i, img)| {
+            let (_, r) = reference.iter().find(|(j, _)| j == i)?;
+            let d = img.diff(r, 0)?;
+            Some((*i, d.psnr_db, frames.get(*i as usize)?.substituted))
+        })
+        .collect()
+}
+
+fn quality_row(tag: &str, q: &[(u32, f64, u32)]) -> String {
+    let identical = q.iter().filter(|x| x.1.is_infinite()).count();
+    let finite: Vec<f64> = q.iter().map(|x| x.1).filter(|v| v.is_finite()).collect();
+    let min = finite.iter().copied().fold(f64::INFINITY, f64::min);
+    let mean = finite.iter().sum::<f64>() / finite.len().max(1) as f64;
+    let show = |v: f64, ok: bool| if ok { format!("{v:.1}") } else { "∞".into() };
+    format!(
+        "| {tag} | {} | {identical} | {} | {} |\n",
+        q.len(),
+        show(min, !finite.is_empty()),
+        show(mean, !finite.is_empty())
+    )
+}
+
+fn write_plots(
+    out: &Path,
+    done: &[(Mode, u64, Vec<FrameMetrics>)],
+    budget: u64,
+    period_ms: f64,
+) -> Result<()> {
+    let label = |m: Mode, b: u64| {
+        if m == Mode::Incore {
+            m.name().to_string()
+        } else {
+            format!("{} {:.1} MiB", m.name(), b as f64 / 1048576.0)
+        }
+    };
+    let first: Vec<plots::Run<'_>> = done
+        .iter()
+        .filter(|(m, b, _)| *m == Mode::Incore || *b == budget)
+        .map(|(m, b, f)| plots::Run {
+            label: label(*m, *b),
+            frames: f,
+        })
+        .collect();
+    plots::frame_times(&out.join("frame_time.png"), &first, period_ms)?;
+    let ooc: Vec<plots::Run<'_>> = done
+        .iter()
+        .filter(|(m, b, _)| *m != Mode::Incore && *b == budget)
+        .map(|(m, b, f)| plots::Run {
+            label: label(*m, *b),
+            frames: f,
+        })
+        .collect();
+    if !ooc.is_empty() {
+        plots::fetch_vs_front(&out.join("stage2_vs_front.png"), &ooc)?;
+        plots::resident(&out.join("resident.png"), &ooc, budget)?;
+    }
+    let points: Vec<plots::SweepPoint> = done
+        .iter()
+        .filter(|(m, _, _)| *m != Mode::Incore)
+        .map(|(m, b, f)| plots::SweepPoint {
+            mode: m.name(),
+            budget_mib: *b as f64 / 1048576.0,
+            stage2_mib: f.iter().map(|x| x.stage2_bytes).sum::<u64>() as f64 / 1048576.0,
+            p99_ms: engine::metrics::quantile(
+                &f.iter().map(|x| x.frame_ms).collect::<Vec<_>>(),
+                0.99,
+            ),
+        })
+        .collect();
+    let sweep_budgets: std::collections::BTreeSet<u64> = done
+        .iter()
+        .filter(|d| d.0 != Mode::Incore)
+        .map(|d| d.1)
+        .collect();
+    if sweep_budgets.len() > 1 {
+        let mut pts = points;
+        pts.sort_by(|x, y| {
+            x.mode
+                .cmp(y.mode)
+                .then(x.budget_mib.total_cmp(&y.budget_mib))
+        });
+        plots::sweep(&out.join("sweep.png"), &pts)?;
+    }
     Ok(())
 }
 

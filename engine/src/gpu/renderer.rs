@@ -1,0 +1,740 @@
+//! [`GpuRenderer`]: resident reps in arena buffers, one pass per frame.
+
+use std::collections::{HashMap, HashSet};
+use std::mem::size_of;
+use std::sync::Arc;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Mat4;
+
+use super::arena::{Alloc, Arena};
+use super::{GpuContext, GpuError, MESH_WGSL};
+use crate::camera::View;
+use crate::format::{PackedVertex, REP_MAGIC, RepHeader};
+use crate::format::{RepKind, RepRecord};
+use crate::image::RgbaImage;
+use crate::render::Renderer;
+use crate::skeleton::RepId;
+
+const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+const BACKGROUND: wgpu::Color = wgpu::Color {
+    r: 0.09,
+    g: 0.10,
+    b: 0.12,
+    a: 1.0,
+};
+
+/// How reps are coloured.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Colouring {
+    /// The scene's own per-vertex colours.
+    #[default]
+    Object,
+    /// By position in the node's rep list (coarse to fine).
+    LodLevel,
+    /// HLODs orange, LODs blue.
+    Kind,
+    /// Reps drawn in place of a missing front rep red, the rest grey.
+    Substituted,
+}
+
+impl Colouring {
+    /// Parses `object`, `lod`, `kind` or `substituted`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "object" => Ok(Self::Object),
+            "lod" => Ok(Self::LodLevel),
+            "kind" => Ok(Self::Kind),
+            "substituted" => Ok(Self::Substituted),
+            _ => Err(format!(
+                "unknown colouring {s:?}: use object, lod, kind or substituted"
+            )),
+        }
+    }
+}
+
+/// Renderer set-up.
+#[derive(Clone, Copy, Debug)]
+pub struct RendererConfig {
+    pub width: u32,
+    pub height: u32,
+    /// GPU bytes for rep geometry: the runtime's budget in the out-of-core
+    /// modes (a rep's geometry is its payload less the header, so whatever the
+    /// runtime holds fits), the scene's data size in-core.
+    pub capacity_bytes: u64,
+    pub colouring: Colouring,
+}
+
+/// Renderer counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GpuStats {
+    pub uploads: u64,
+    pub uploaded_bytes: u64,
+    /// Geometry bytes on the GPU now, and the most ever.
+    pub live_bytes: u64,
+    pub max_live_bytes: u64,
+    /// Times the arena was repacked because it was too fragmented.
+    pub repacks: u32,
+    /// Reps whose payload did not match its record (each logged once).
+    pub bad_payloads: u64,
+    pub draws: u64,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct Globals {
+    view_proj: [[f32; 4]; 4],
+    eye: [f32; 4],
+}
+const _: () = assert!(size_of::<Globals>() == 80);
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct DrawData {
+    quant_min: [f32; 4],
+    quant_extent: [f32; 4],
+    tint: [f32; 4],
+}
+const _: () = assert!(size_of::<DrawData>() == 48);
+
+#[derive(Clone, Copy, Debug)]
+struct Slot {
+    alloc: Alloc,
+    vertex_count: u32,
+    index_count: u32,
+    index_u32: bool,
+    quant_min: [f32; 3],
+    quant_scale: [f32; 3],
+    last_frame: u32,
+}
+
+#[derive(Debug)]
+struct FrameDraw {
+    rep: RepId,
+    substitute: bool,
+    level: u16,
+    kind: u16,
+    payload: Arc<[u8]>,
+}
+
+#[derive(Debug)]
+struct Target {
+    color: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+}
+
+/// Draws fronts with wgpu; see the module docs.
+#[derive(Debug)]
+pub struct GpuRenderer {
+    ctx: GpuContext,
+    cfg: RendererConfig,
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    globals: wgpu::Buffer,
+    draw_buf: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    arena: Arena,
+    chunks: Vec<wgpu::Buffer>,
+    slots: HashMap<RepId, Slot>,
+    frame_draws: Vec<FrameDraw>,
+    frame_no: u32,
+    view: Option<View>,
+    target: Target,
+    capture_next: bool,
+    captured: Option<RgbaImage>,
+    capture_every: u32,
+    captures: Vec<(u32, RgbaImage)>,
+    stats: GpuStats,
+    warned: HashSet<RepId>,
+    repacking: bool,
+}
+
+impl GpuRenderer {
+    /// Creates the pipeline, the arena and a `width × height` target.
+    pub fn new(ctx: GpuContext, cfg: RendererConfig) -> Result<Self, GpuError> {
+        let limits = ctx.device.limits();
+        let max_dim = limits.max_texture_dimension_2d;
+        if cfg.width == 0 || cfg.height == 0 || cfg.width > max_dim || cfg.height > max_dim {
+            return Err(GpuError::Params(format!(
+                "target size {}x{} outside 1..={max_dim}",
+                cfg.width, cfg.height
+            )));
+        }
+        let chunk_size = limits.max_buffer_size.min(256 << 20);
+        let arena = Arena::new(cfg.capacity_bytes, chunk_size);
+        let device = &ctx.device;
+        let chunks = arena
+            .chunk_sizes()
+            .enumerate()
+            .map(|(i, size)| {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(&format!("rep arena {i}")),
+                    size,
+                    usage: wgpu::BufferUsages::VERTEX
+                        | wgpu::BufferUsages::INDEX
+                        | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
+            })
+            .collect();
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("mesh"),
+            entries: &[
+                layout_entry(0, wgpu::BufferBindingType::Uniform),
+                layout_entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
+            ],
+        });
+        let pipeline = create_pipeline(device, &layout);
+        let globals = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("globals"),
+            size: size_of::<Globals>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let draw_buf = draw_buffer(device, 1024);
+        let bind_group = bind(device, &layout, &globals, &draw_buf);
+        let target = make_target(device, cfg.width, cfg.height);
+        let errs = ctx.take_errors();
+        if !errs.is_empty() {
+            return Err(GpuError::Wgpu(errs.join("; ")));
+        }
+        Ok(Self {
+            ctx,
+            cfg,
+            pipeline,
+            layout,
+            globals,
+            draw_buf,
+            bind_group,
+            arena,
+            chunks,
+            slots: HashMap::new(),
+            frame_draws: Vec::new(),
+            frame_no: 0,
+            view: None,
+            target,
+            capture_next: false,
+            captured: None,
+            capture_every: 0,
+            captures: Vec::new(),
+            stats: GpuStats::default(),
+            warned: HashSet::new(),
+            repacking: false,
+        })
+    }
+
+    /// The device and queue in use.
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// Counters so far.
+    pub fn stats(&self) -> GpuStats {
+        self.stats
+    }
+
+    /// Changes the debug colouring from the next frame on.
+    pub fn set_colouring(&mut self, c: Colouring) {
+        self.cfg.colouring = c;
+    }
+
+    /// Reads the next finished frame back (see [`take_capture`](Self::take_capture)).
+    pub fn capture_next_frame(&mut self) {
+        self.capture_next = true;
+    }
+
+    /// Reads back every `n`-th frame (frames 0, n, 2n, … counted from the
+    /// first; 0 = none) and keeps the images for [`take_captures`](Self::take_captures).
+    pub fn capture_every(&mut self, n: u32) {
+        self.capture_every = n;
+    }
+
+    /// The periodic captures so far: (frame index, image).
+    pub fn take_captures(&mut self) -> Vec<(u32, RgbaImage)> {
+        std::mem::take(&mut self.captures)
+    }
+
+    /// The image read back from the last frame asked for.
+    pub fn take_capture(&mut self) -> Option<RgbaImage> {
+        self.captured.take()
+    }
+
+    /// The texture frames are drawn into.
+    pub fn target_texture(&self) -> &wgpu::Texture {
+        &self.target.color
+    }
+
+    fn free_slot(&mut self, rep: RepId) {
+        if let Some(s) = self.slots.remove(&rep) {
+            self.arena.free(s.alloc);
+            self.stats.live_bytes = self.arena.live_bytes();
+        }
+    }
+
+    /// Makes `bytes` of arena space: first by dropping GPU copies not drawn
+    /// this frame (oldest first), then by repacking this frame's reps.
+    fn allocate(&mut self, bytes: u64) -> Option<Alloc> {
+        if let Some(a) = self.arena.alloc(bytes) {
+            return Some(a);
+        }
+        if bytes > self.arena.max_alloc() || self.repacking {
+            return None;
+        }
+        let mut idle: Vec<(u32, RepId)> = self
+            .slots
+            .iter()
+            .filter(|(_, s)| s.last_frame != self.frame_no)
+            .map(|(&r, s)| (s.last_frame, r))
+            .collect();
+        idle.sort_unstable();
+        for (_, r) in idle {
+            self.free_slot(r);
+            if let Some(a) = self.arena.alloc(bytes) {
+                return Some(a);
+            }
+        }
+        // Fragmented by this frame's own reps: repack them.
+        self.stats.repacks += 1;
+        self.arena.reset();
+        self.slots.clear();
+        let draws: Vec<(RepId, Arc<[u8]>)> = self
+            .frame_draws
+            .iter()
+            .map(|d| (d.rep, d.payload.clone()))
+            .collect();
+        self.repacking = true;
+        for (rep, payload) in draws {
+            if !self.slots.contains_key(&rep) {
+                let _ = self.upload(rep, &payload);
+            }
+        }
+        self.repacking = false;
+        self.arena.alloc(bytes)
+    }
+
+    /// Uploads a payload's vertices and indices; `false` if it is malformed
+    /// or cannot fit.
+    fn upload(&mut self, rep: RepId, payload: &[u8]) -> bool {
+        let hsize = size_of::<RepHeader>();
+        let Some(h) = payload
+            .get(..hsize)
+            .map(bytemuck::pod_read_unaligned::<RepHeader>)
+        else {
+            return false;
+        };
+        let vbytes = h.vertex_count as usize * size_of::<PackedVertex>();
+        let ibytes = (h.index_count as usize * h.index_size as usize).next_multiple_of(4);
+        let ok = h.magic == REP_MAGIC
+            && matches!(h.index_size, 2 | 4)
+            && h.index_count % 3 == 0
+            && payload.len() >= hsize + vbytes + ibytes;
+        if !ok {
+            return false;
+        }
+        let body = &payload[hsize..hsize + vbytes + ibytes];
+        let Some(alloc) = self.allocate(body.len() as u64) else {
+            return false;
+        };
+        let buf = &self.chunks[alloc.chunk as usize];
+        self.ctx.queue.write_buffer(buf, alloc.offset, body);
+        self.slots.insert(
+            rep,
+            Slot {
+                alloc,
+                vertex_count: h.vertex_count,
+                index_count: h.index_count,
+                index_u32: h.index_size == 4,
+                quant_min: h.quant_min,
+                quant_scale: h.quant_scale,
+                last_frame: self.frame_no,
+            },
+        );
+        self.stats.uploads += 1;
+        self.stats.uploaded_bytes += body.len() as u64;
+        self.stats.live_bytes = self.arena.live_bytes();
+        self.stats.max_live_bytes = self.stats.max_live_bytes.max(self.stats.live_bytes);
+        true
+    }
+
+    fn tint(&self, d: &FrameDraw) -> [f32; 4] {
+        const LEVELS: [[f32; 3]; 6] = [
+            [0.20, 0.40, 0.95],
+            [0.15, 0.75, 0.85],
+            [0.25, 0.80, 0.30],
+            [0.90, 0.85, 0.20],
+            [0.95, 0.55, 0.15],
+            [0.90, 0.20, 0.20],
+        ];
+        let rgb = match self.cfg.colouring {
+            Colouring::Object => return [0.0; 4],
+            Colouring::LodLevel => LEVELS[usize::from(d.level).min(LEVELS.len() - 1)],
+            Colouring::Kind if d.kind == RepKind::Hlod as u16 => [0.95, 0.55, 0.15],
+            Colouring::Kind => [0.25, 0.45, 0.90],
+            Colouring::Substituted if d.substitute => [0.95, 0.10, 0.10],
+            Colouring::Substituted => [0.60, 0.60, 0.60],
+        };
+        [rgb[0], rgb[1], rgb[2], 1.0]
+    }
+
+    /// Draws this frame's reps into `color` (with `depth`) and submits.
+    fn encode_frame(&mut self, color: &wgpu::TextureView, depth: &wgpu::TextureView) {
+        let device = &self.ctx.device;
+        let mut draws: Vec<(usize, Slot)> = self
+            .frame_draws
+            .iter()
+            .enumerate()
+            .filter_map(|(i, d)| self.slots.get(&d.rep).map(|s| (i, *s)))
+            .collect();
+        draws.sort_unstable_by_key(|(i, s)| (s.alloc.chunk, s.index_u32, self.frame_draws[*i].rep));
+        let data: Vec<DrawData> = draws
+            .iter()
+            .map(|(i, s)| {
+                let e = s.quant_scale.map(|x| x * 65535.0);
+                DrawData {
+                    quant_min: [s.quant_min[0], s.quant_min[1], s.quant_min[2], 0.0],
+                    quant_extent: [e[0], e[1], e[2], 0.0],
+                    tint: self.tint(&self.frame_draws[*i]),
+                }
+            })
+            .collect();
+        if data.len() as u64 > self.draw_buf.size() / size_of::<DrawData>() as u64 {
+            self.draw_buf = draw_buffer(device, data.len().next_power_of_two() as u64);
+            self.bind_group = bind(device, &self.layout, &self.globals, &self.draw_buf);
+        }
+        if !data.is_empty() {
+            self.ctx
+                .queue
+                .write_buffer(&self.draw_buf, 0, bytemuck::cast_slice(&data));
+        }
+        if let Some(v) = &self.view {
+            let g = Globals {
+                view_proj: view_proj(v).to_cols_array_2d(),
+                eye: v.pose.position.extend(1.0).to_array(),
+            };
+            self.ctx
+                .queue
+                .write_buffer(&self.globals, 0, bytemuck::bytes_of(&g));
+        }
+        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("frame"),
+        });
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("front"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: color,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(BACKGROUND),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: depth,
+                    // Reverse Z: 0 is infinitely far.
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(0.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            if self.view.is_some() && !draws.is_empty() {
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &self.bind_group, &[]);
+                let mut bound = None;
+                for (k, (_, s)) in draws.iter().enumerate() {
+                    let key = (s.alloc.chunk, s.index_u32);
+                    if bound != Some(key) {
+                        let buf = &self.chunks[s.alloc.chunk as usize];
+                        pass.set_vertex_buffer(0, buf.slice(..));
+                        let fmt = if s.index_u32 {
+                            wgpu::IndexFormat::Uint32
+                        } else {
+                            wgpu::IndexFormat::Uint16
+                        };
+                        pass.set_index_buffer(buf.slice(..), fmt);
+                        bound = Some(key);
+                    }
+                    let isize = if s.index_u32 { 4 } else { 2 };
+                    let first = (s.alloc.offset + u64::from(s.vertex_count) * 16) / isize as u64;
+                    let base = (s.alloc.offset / 16) as i32;
+                    pass.draw_indexed(
+                        first as u32..first as u32 + s.index_count,
+                        base,
+                        k as u32..k as u32 + 1,
+                    );
+                }
+                self.stats.draws += draws.len() as u64;
+            }
+        }
+        self.ctx.queue.submit([enc.finish()]);
+    }
+
+    fn read_back(&mut self) -> Option<RgbaImage> {
+        let (w, h) = (self.cfg.width, self.cfg.height);
+        let row = (4 * w).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+        let device = &self.ctx.device;
+        let buf = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: u64::from(row) * u64::from(h),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("readback"),
+        });
+        enc.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.target.color,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &buf,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row),
+                    rows_per_image: Some(h),
+                },
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+        );
+        self.ctx.queue.submit([enc.finish()]);
+        let slice = buf.slice(..);
+        slice.map_async(wgpu::MapMode::Read, |_| {});
+        device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
+        let view = slice.get_mapped_range().ok()?;
+        let mut data = Vec::with_capacity((4 * w * h) as usize);
+        for y in 0..h as usize {
+            let start = y * row as usize;
+            data.extend_from_slice(&view[start..start + 4 * w as usize]);
+        }
+        drop(view);
+        buf.unmap();
+        Some(RgbaImage {
+            width: w,
+            height: h,
+            data,
+        })
+    }
+}
+
+impl Renderer for GpuRenderer {
+    fn begin_frame(&mut self, view: &View) {
+        self.frame_no += 1;
+        self.frame_draws.clear();
+        self.view = Some(*view);
+    }
+
+    fn draw(&mut self, rep: RepId, record: &RepRecord, payload: &Arc<[u8]>, substitute: bool) {
+        let resident = match self.slots.get_mut(&rep) {
+            Some(s) => {
+                s.last_frame = self.frame_no;
+                true
+            }
+            None => false,
+        };
+        let consistent = payload.len() >= size_of::<RepHeader>() && {
+            let h: RepHeader = bytemuck::pod_read_unaligned(&payload[..size_of::<RepHeader>()]);
+            h.vertex_count == record.vertex_count && h.index_count == 3 * record.tri_count
+        };
+        if !consistent || (!resident && !self.upload(rep, payload)) {
+            self.stats.bad_payloads += 1;
+            if self.warned.insert(rep) {
+                tracing::warn!("rep {rep}: payload cannot be drawn (malformed or too large)");
+            }
+            return;
+        }
+        self.frame_draws.push(FrameDraw {
+            rep,
+            substitute,
+            level: record.index,
+            kind: record.kind,
+            payload: payload.clone(),
+        });
+    }
+
+    fn evict(&mut self, rep: RepId) {
+        self.free_slot(rep);
+    }
+
+    fn end_frame(&mut self) {
+        let color = self.target.color_view.clone();
+        let depth = self.target.depth_view.clone();
+        self.encode_frame(&color, &depth);
+        let index = self.frame_no - 1;
+        let periodic = self.capture_every > 0 && index % self.capture_every == 0;
+        if std::mem::take(&mut self.capture_next) || periodic {
+            let img = self.read_back();
+            if periodic && let Some(i) = &img {
+                self.captures.push((index, i.clone()));
+            }
+            self.captured = img;
+        } else {
+            let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
+        }
+        self.frame_draws.clear();
+    }
+
+    fn gpu_bytes(&self) -> u64 {
+        self.stats.live_bytes
+    }
+
+    fn name(&self) -> &'static str {
+        "wgpu"
+    }
+}
+
+/// Projection (reverse Z, infinite far plane) times view.
+pub(crate) fn view_proj(v: &View) -> Mat4 {
+    let proj = glam::camera::rh::proj::directx::perspective_infinite_reverse(
+        v.pose.fov_y_deg.to_radians(),
+        v.aspect(),
+        v.near,
+    );
+    let world_to_cam = Mat4::from_rotation_translation(v.pose.rotation, v.pose.position).inverse();
+    proj * world_to_cam
+}
+
+fn layout_entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn draw_buffer(device: &wgpu::Device, entries: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("draws"),
+        size: entries.max(1) * size_of::<DrawData>() as u64,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+fn bind(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    globals: &wgpu::Buffer,
+    draws: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("mesh"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: globals.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: draws.as_entire_binding(),
+            },
+        ],
+    })
+}
+
+fn create_pipeline(device: &wgpu::Device, layout: &wgpu::BindGroupLayout) -> wgpu::RenderPipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("mesh.wgsl"),
+        source: wgpu::ShaderSource::Wgsl(MESH_WGSL.into()),
+    });
+    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("mesh"),
+        bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    let attrs = wgpu::vertex_attr_array![0 => Unorm16x4, 1 => Snorm8x4, 2 => Unorm8x4];
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("mesh"),
+        layout: Some(&pl),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: size_of::<PackedVertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &attrs,
+            })],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Greater),
+            stencil: Default::default(),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: COLOR_FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+fn make_target(device: &wgpu::Device, width: u32, height: u32) -> Target {
+    let size = wgpu::Extent3d {
+        width,
+        height,
+        depth_or_array_layers: 1,
+    };
+    let tex = |label, format, usage| {
+        device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage,
+            view_formats: &[],
+        })
+    };
+    let color = tex(
+        "color",
+        COLOR_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+    );
+    let depth = tex(
+        "depth",
+        DEPTH_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    );
+    Target {
+        color_view: color.create_view(&Default::default()),
+        depth_view: depth.create_view(&Default::default()),
+        color,
+    }
+}

@@ -1,0 +1,236 @@
+//! RGBA8 images: PNG files, PSNR, and tolerance-based comparison with a
+//! difference image, for golden-image tests and the benchmark's image quality.
+//! Plain CPU code.
+
+use std::io::{BufReader, BufWriter};
+use std::path::Path;
+
+/// An 8-bit RGBA image, rows top to bottom.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RgbaImage {
+    pub width: u32,
+    pub height: u32,
+    pub data: Vec<u8>,
+}
+
+/// Why an image cannot be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: not a usable PNG: {reason}")]
+    Png { path: String, reason: String },
+}
+
+/// How two images differ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImageDiff {
+    /// Largest difference of any channel (0..=255).
+    pub max_channel_diff: u8,
+    /// Pixels whose largest channel difference exceeds the tolerance.
+    pub pixels_over: u64,
+    /// Peak signal-to-noise ratio over RGB in dB (`f64::INFINITY` if equal).
+    pub psnr_db: f64,
+}
+
+impl RgbaImage {
+    /// A `width × height` image filled with `rgba`.
+    pub fn filled(width: u32, height: u32, rgba: [u8; 4]) -> Self {
+        let n = width as usize * height as usize;
+        Self {
+            width,
+            height,
+            data: rgba.repeat(n),
+        }
+    }
+
+    /// The pixel at `(x, y)`.
+    pub fn pixel(&self, x: u32, y: u32) -> [u8; 4] {
+        let i = 4 * (y as usize * self.width as usize + x as usize);
+        [
+            self.data[i],
+            self.data[i + 1],
+            self.data[i + 2],
+            self.data[i + 3],
+        ]
+    }
+
+    /// Writes the image as an RGBA PNG (via a temporary file, renamed).
+    pub fn save_png(&self, path: &Path) -> Result<(), ImageError> {
+        let name = path.display().to_string();
+        let io = |source| ImageError::Io {
+            path: name.clone(),
+            source,
+        };
+        let tmp = path.with_extension("png.tmp");
+        let file = std::fs::File::create(&tmp).map_err(io)?;
+        let mut enc = png::Encoder::new(BufWriter::new(file), self.width, self.height);
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_depth(png::BitDepth::Eight);
+        let png_err = |e: png::EncodingError| ImageError::Png {
+            path: name.clone(),
+            reason: e.to_string(),
+        };
+        let mut w = enc.write_header().map_err(png_err)?;
+        w.write_image_data(&self.data).map_err(png_err)?;
+        w.finish().map_err(png_err)?;
+        std::fs::rename(&tmp, path).map_err(io)
+    }
+
+    /// Reads an 8-bit RGB or RGBA PNG.
+    pub fn load_png(path: &Path) -> Result<Self, ImageError> {
+        let name = path.display().to_string();
+        let file = std::fs::File::open(path).map_err(|source| ImageError::Io {
+            path: name.clone(),
+            source,
+        })?;
+        let bad = |reason: String| ImageError::Png {
+            path: name.clone(),
+            reason,
+        };
+        let mut dec = png::Decoder::new(BufReader::new(file));
+        dec.set_transformations(png::Transformations::EXPAND);
+        let mut reader = dec.read_info().map_err(|e| bad(e.to_string()))?;
+        let size = reader
+            .output_buffer_size()
+            .ok_or_else(|| bad("image too large".into()))?;
+        let mut buf = vec![0; size];
+        let info = reader
+            .next_frame(&mut buf)
+            .map_err(|e| bad(e.to_string()))?;
+        if info.bit_depth != png::BitDepth::Eight {
+            return Err(bad(format!("bit depth {:?}, need 8", info.bit_depth)));
+        }
+        let px = info.width as usize * info.height as usize;
+        let data = match info.color_type {
+            png::ColorType::Rgba => buf[..px * 4].to_vec(),
+            png::ColorType::Rgb => buf[..px * 3]
+                .chunks_exact(3)
+                .flat_map(|c| [c[0], c[1], c[2], 255])
+                .collect(),
+            other => return Err(bad(format!("colour type {other:?}, need RGB(A)"))),
+        };
+        Ok(Self {
+            width: info.width,
+            height: info.height,
+            data,
+        })
+    }
+
+    /// Compares RGB channels with `other` (same size required).
+    pub fn diff(&self, other: &RgbaImage, tolerance: u8) -> Option<ImageDiff> {
+        if (self.width, self.height) != (other.width, other.height) {
+            return None;
+        }
+        let mut max = 0u8;
+        let mut over = 0u64;
+        let mut sq = 0f64;
+        for (a, b) in self.data.chunks_exact(4).zip(other.data.chunks_exact(4)) {
+            let mut px = 0u8;
+            for c in 0..3 {
+                let d = a[c].abs_diff(b[c]);
+                px = px.max(d);
+                sq += f64::from(d) * f64::from(d);
+            }
+            max = max.max(px);
+            over += u64::from(px > tolerance);
+        }
+        let n = 3.0 * f64::from(self.width) * f64::from(self.height);
+        let mse = sq / n.max(1.0);
+        let psnr_db = if mse == 0.0 {
+            f64::INFINITY
+        } else {
+            10.0 * (255.0f64 * 255.0 / mse).log10()
+        };
+        Some(ImageDiff {
+            max_channel_diff: max,
+            pixels_over: over,
+            psnr_db,
+        })
+    }
+
+    /// A visualisation of the differences: black where equal, brighter red
+    /// where they differ more, white where over `tolerance`.
+    pub fn diff_image(&self, other: &RgbaImage, tolerance: u8) -> Option<RgbaImage> {
+        if (self.width, self.height) != (other.width, other.height) {
+            return None;
+        }
+        let data = self
+            .data
+            .chunks_exact(4)
+            .zip(other.data.chunks_exact(4))
+            .flat_map(|(a, b)| {
+                let d = (0..3).map(|c| a[c].abs_diff(b[c])).max().unwrap_or(0);
+                if d > tolerance {
+                    [255, 255, 255, 255]
+                } else {
+                    [d.saturating_mul(8), 0, 0, 255]
+                }
+            })
+            .collect();
+        Some(RgbaImage {
+            width: self.width,
+            height: self.height,
+            data,
+        })
+    }
+
+    /// Fraction of pixels that differ from the colour of pixel (0, 0).
+    pub fn coverage(&self) -> f64 {
+        let bg = self.pixel(0, 0);
+        let n = self
+            .data
+            .chunks_exact(4)
+            .filter(|p| p[..3] != bg[..3])
+            .count();
+        n as f64 / (self.width as f64 * self.height as f64).max(1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn png_round_trip_and_psnr() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut img = RgbaImage::filled(7, 5, [10, 20, 30, 255]);
+        img.data[4 * 8] = 200;
+        let p = dir.path().join("a.png");
+        img.save_png(&p).unwrap();
+        let back = RgbaImage::load_png(&p).unwrap();
+        assert_eq!(back, img);
+        let d = img.diff(&back, 0).unwrap();
+        assert_eq!(d.psnr_db, f64::INFINITY);
+        assert_eq!(d.pixels_over, 0);
+        let mut other = img.clone();
+        other.data[0] = 20; // one channel off by 10
+        let d = img.diff(&other, 5).unwrap();
+        assert_eq!((d.max_channel_diff, d.pixels_over), (10, 1));
+        let mse: f64 = 100.0 / (3.0 * 35.0);
+        assert!((d.psnr_db - 10.0 * (255.0 * 255.0 / mse).log10()).abs() < 1e-9);
+        let di = img.diff_image(&other, 5).unwrap();
+        assert_eq!(di.pixel(0, 0), [255, 255, 255, 255]);
+        assert_eq!(di.pixel(1, 0), [0, 0, 0, 255]);
+        assert!(img.diff(&RgbaImage::filled(1, 1, [0; 4]), 0).is_none());
+        assert!((img.coverage() - 1.0 / 35.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_png_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("bad.png");
+        std::fs::write(&p, b"not a png").unwrap();
+        assert!(matches!(
+            RgbaImage::load_png(&p),
+            Err(ImageError::Png { .. })
+        ));
+        assert!(matches!(
+            RgbaImage::load_png(&dir.path().join("missing.png")),
+            Err(ImageError::Io { .. })
+        ));
+    }
+}

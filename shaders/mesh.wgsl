@@ -1,0 +1,65 @@
+// Object-rep shading: quantised positions expanded over each rep's box,
+// per-vertex colour (or a debug tint), headlight Lambert.
+//
+// Vertex layout (16 bytes, see engine::format::rep::PackedVertex):
+//   location 0: position unorm16x4 over the rep's quantisation box
+//   location 1: normal snorm8x4 (w unused; a zero normal means "use the face")
+//   location 2: colour unorm8x4
+// Per draw: `draws[instance_index]` (the renderer issues each rep as one
+// instance whose index selects its record).
+
+struct Globals {
+    view_proj: mat4x4<f32>,
+    // xyz: eye position in world space.
+    eye: vec4<f32>,
+};
+
+struct DrawData {
+    // xyz: world position of quantised 0; w unused.
+    quant_min: vec4<f32>,
+    // xyz: world size of one unorm16 step times 65535; w unused.
+    quant_extent: vec4<f32>,
+    // rgb: debug tint; a: how much of it replaces the vertex colour.
+    tint: vec4<f32>,
+};
+
+@group(0) @binding(0) var<uniform> globals: Globals;
+@group(0) @binding(1) var<storage, read> draws: array<DrawData>;
+
+struct VsIn {
+    @location(0) position: vec4<f32>,
+    @location(1) normal: vec4<f32>,
+    @location(2) color: vec4<f32>,
+};
+
+struct VsOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) color: vec3<f32>,
+};
+
+@vertex
+fn vs_main(v: VsIn, @builtin(instance_index) draw: u32) -> VsOut {
+    let d = draws[draw];
+    let world = d.quant_min.xyz + v.position.xyz * d.quant_extent.xyz;
+    var out: VsOut;
+    out.clip = globals.view_proj * vec4<f32>(world, 1.0);
+    out.world = world;
+    out.normal = v.normal.xyz;
+    out.color = mix(v.color.rgb, d.tint.rgb, d.tint.a);
+    return out;
+}
+
+@fragment
+fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
+    // Derivatives in uniform control flow; the face normal stands in for a
+    // zero vertex normal.
+    let face = cross(dpdx(in.world), dpdy(in.world));
+    let n = normalize(select(in.normal, face, dot(in.normal, in.normal) < 1e-6));
+    let to_eye = normalize(globals.eye.xyz - in.world);
+    // Headlight: two-sided, so that open CAD surfaces read from both sides.
+    let lambert = abs(dot(n, to_eye));
+    let shade = 0.2 + 0.8 * lambert;
+    return vec4<f32>(in.color * shade, 1.0);
+}

@@ -1,0 +1,223 @@
+//! The wgpu renderer, headless (lavapipe on machines without a GPU): golden
+//! images of a small scene, identical images for equal fronts in `pre` and
+//! `incore`, and GPU memory under the budget.
+//!
+//! Goldens live in `tests/golden/`; `UPDATE_GOLDEN=1` rewrites them. On a
+//! mismatch the actual image and a difference image are written next to the
+//! test binary's temporary directory and their paths are in the panic.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use engine::camera::{PathKind, Pose, generate_path};
+use engine::gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
+use engine::image::RgbaImage;
+use engine::runtime::{Mode, RuntimeParams, Walkthrough};
+use engine::{ByteSource, MemSource, SceneFile, Skeleton};
+use glam::Vec3;
+use hlod_builder::build::{BuildParams, build_file};
+
+const W: u32 = 320;
+const H: u32 = 240;
+
+fn build(glb: &Path) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("scene.hlod");
+    build_file(glb, &out, &BuildParams::default(), false).unwrap();
+    (dir, out)
+}
+
+fn load(path: &Path) -> (Arc<Skeleton>, Arc<dyn ByteSource>, u64) {
+    let scene = SceneFile::open(path).unwrap();
+    let skel = Arc::new(scene.skeleton().clone());
+    let data: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    let bytes = std::fs::read(path).unwrap();
+    (skel, Arc::new(MemSource::new(bytes)), data)
+}
+
+fn renderer(capacity: u64, colouring: Colouring) -> GpuRenderer {
+    let ctx = GpuContext::new().expect("a GPU adapter (lavapipe: mesa-vulkan-drivers)");
+    GpuRenderer::new(
+        ctx,
+        RendererConfig {
+            width: W,
+            height: H,
+            capacity_bytes: capacity,
+            colouring,
+        },
+    )
+    .unwrap()
+}
+
+fn params(mode: Mode, budget: u64, tol: f32) -> RuntimeParams {
+    RuntimeParams {
+        mode,
+        budget_bytes: budget,
+        tolerance_px: tol,
+        width_px: W,
+        height_px: H,
+        ..RuntimeParams::default()
+    }
+}
+
+/// A view of the whole scene from direction `dir`.
+fn overview(skel: &Skeleton, dir: Vec3) -> Pose {
+    let root = &skel.nodes[0];
+    let (min, max) = (Vec3::from(root.bbox_min), Vec3::from(root.bbox_max));
+    let c = (min + max) * 0.5;
+    let eye = c + dir.normalize() * (max - min).length() * 0.8;
+    Pose::look_at(eye, c, 50.0)
+}
+
+/// Renders `pose` and reads the image back.
+fn shot(walk: &mut Walkthrough, r: &mut GpuRenderer, pose: &Pose) -> RgbaImage {
+    r.capture_next_frame();
+    walk.frame(pose, r).unwrap();
+    r.take_capture().expect("captured frame")
+}
+
+fn check_golden(name: &str, img: &RgbaImage) {
+    let golden = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("golden")
+        .join(format!("{name}.png"));
+    if std::env::var_os("UPDATE_GOLDEN").is_some() {
+        std::fs::create_dir_all(golden.parent().unwrap()).unwrap();
+        img.save_png(&golden).unwrap();
+        return;
+    }
+    let want =
+        RgbaImage::load_png(&golden).unwrap_or_else(|e| panic!("{e} (UPDATE_GOLDEN=1 writes it)"));
+    // Software and hardware rasterisers may differ on edge pixels and in
+    // the last bit of shading: allow small differences on few pixels.
+    let tol = 12;
+    let d = img.diff(&want, tol).expect("golden has the same size");
+    let allowed = u64::from(W * H) / 200;
+    if d.pixels_over > allowed {
+        let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("golden-failures");
+        std::fs::create_dir_all(&out).unwrap();
+        let actual = out.join(format!("{name}.actual.png"));
+        let diff = out.join(format!("{name}.diff.png"));
+        img.save_png(&actual).unwrap();
+        img.diff_image(&want, tol).unwrap().save_png(&diff).unwrap();
+        panic!(
+            "{name}: {} pixels differ by more than {tol} (allowed {allowed}, PSNR {:.1} dB); actual {}, difference {}",
+            d.pixels_over,
+            d.psnr_db,
+            actual.display(),
+            diff.display()
+        );
+    }
+}
+
+#[test]
+fn golden_images_of_the_cad_assembly() {
+    let glb = e2e_tests::data_dir().join("2CylinderEngine/2CylinderEngine.gltf");
+    let (_dir, scene) = build(&glb);
+    let (skel, source, data) = load(&scene);
+    let far = overview(&skel, Vec3::new(1.0, 0.7, 1.3));
+    let near = overview(&skel, Vec3::new(-1.0, 0.3, 0.6));
+    let mut r = renderer(data, Colouring::Object);
+    let mut walk = Walkthrough::start(skel, source, params(Mode::Incore, 0, 1.0)).unwrap();
+    let a = shot(&mut walk, &mut r, &far);
+    assert!(a.coverage() > 0.05, "the engine covers part of the image");
+    check_golden("engine-front", &a);
+    let b = shot(&mut walk, &mut r, &near);
+    check_golden("engine-back", &b);
+    r.set_colouring(Colouring::LodLevel);
+    let c = shot(&mut walk, &mut r, &near);
+    check_golden("engine-back-lod", &c);
+    assert_ne!(b, c, "the LOD colouring changes the image");
+    assert!(r.context().take_errors().is_empty());
+}
+
+/// Plays `poses`, capturing every `every`-th frame: (metrics, images).
+fn play(
+    walk: &mut Walkthrough,
+    r: &mut GpuRenderer,
+    poses: &[Pose],
+    every: usize,
+) -> (Vec<engine::metrics::FrameMetrics>, Vec<Option<RgbaImage>>) {
+    let mut ms = Vec::new();
+    let mut imgs = Vec::new();
+    for (i, p) in poses.iter().enumerate() {
+        let cap = i % every == 0;
+        if cap {
+            r.capture_next_frame();
+        }
+        ms.push(walk.frame(p, r).unwrap());
+        imgs.push(if cap { r.take_capture() } else { None });
+    }
+    (ms, imgs)
+}
+
+#[test]
+fn equal_fronts_give_identical_images_and_gpu_memory_follows_the_budget() {
+    use hlod_builder::scenegen::plant::{PlantParams, write_plant};
+    let dir = tempfile::tempdir().unwrap();
+    let glb = dir.path().join("plant.glb");
+    let p = PlantParams {
+        seed: 3,
+        objects: 150,
+        triangles: 120_000,
+    };
+    write_plant(&p, &glb).unwrap();
+    let (_d, scene) = build(&glb);
+    let (skel, source, data) = load(&scene);
+    let root = &skel.nodes[0];
+    let poses = generate_path(
+        PathKind::Flythrough,
+        Vec3::from(root.bbox_min),
+        Vec3::from(root.bbox_max),
+        160,
+    );
+    let every = 8;
+    let run = |mode: Mode, budget: u64| {
+        let cap = if mode == Mode::Incore { data } else { budget };
+        let mut r = renderer(cap, Colouring::Object);
+        let mut walk =
+            Walkthrough::start(skel.clone(), source.clone(), params(mode, budget, 1.0)).unwrap();
+        let out = play(&mut walk, &mut r, &poses, every);
+        assert!(r.context().take_errors().is_empty());
+        (out, r.stats())
+    };
+    let ((incore, ref_imgs), _) = run(Mode::Incore, data);
+    let mut identical = 0;
+    let mut substituted_frames = 0;
+    for budget in [data / 2, data / 12] {
+        let ((frames, imgs), stats) = run(Mode::Pre, budget);
+        assert!(stats.max_live_bytes <= budget, "GPU bytes over the budget");
+        assert!(stats.uploads > 0 && stats.draws > 0);
+        for (i, f) in frames.iter().enumerate() {
+            assert!(
+                f.gpu_bytes <= budget,
+                "frame {i}: GPU {} > {budget}",
+                f.gpu_bytes
+            );
+            assert!(f.max_resident_bytes <= budget);
+            let (Some(a), Some(b)) = (&imgs[i], &ref_imgs[i]) else {
+                continue;
+            };
+            assert_eq!(f.front_reps, incore[i].front_reps);
+            if f.substituted == 0 {
+                assert_eq!(
+                    a, b,
+                    "budget {budget}, frame {i}: equal fronts, different images"
+                );
+                identical += 1;
+            } else {
+                substituted_frames += 1;
+                let d = a.diff(b, 0).unwrap();
+                assert!(d.psnr_db.is_finite() && d.psnr_db > 10.0, "{d:?}");
+            }
+        }
+    }
+    assert!(
+        identical >= 10,
+        "only {identical} frames without substitutes"
+    );
+    assert!(
+        ref_imgs.iter().flatten().all(|i| i.coverage() > 0.01),
+        "every sampled frame shows the plant"
+    );
+    eprintln!("{identical} identical frames, {substituted_frames} with substitutes");
+}
