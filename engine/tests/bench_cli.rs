@@ -114,9 +114,14 @@ fn runs_and_rejects_bad_input_clearly() {
         "pre.csv",
         "summary.md",
         "path.txt",
+        "frame_time.png",
+        "stage2_vs_front.png",
+        "resident.png",
     ] {
         assert!(d.join("o").join(f).exists(), "{f}");
     }
+    let plot = engine::image::RgbaImage::load_png(&d.join("o/frame_time.png")).unwrap();
+    assert!(plot.coverage() > 0.02, "the plot has axes, labels and lines");
     let csv = std::fs::read_to_string(d.join("o/pre.csv")).unwrap();
     assert_eq!(csv.lines().count(), 31);
 
@@ -141,7 +146,7 @@ fn runs_and_rejects_bad_input_clearly() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    for f in ["incore.csv", "pre-1.00MiB.csv", "pre-2.00MiB.csv"] {
+    for f in ["incore.csv", "pre-1.00MiB.csv", "pre-2.00MiB.csv", "sweep.png"] {
         assert!(d.join("sweep").join(f).exists(), "{f}");
     }
     let table = std::fs::read_to_string(d.join("sweep/summary.md")).unwrap();
@@ -173,10 +178,59 @@ fn runs_and_rejects_bad_input_clearly() {
     );
     assert_fails(&bench(d, &["s.hlod", "--budget", "lots"]), "--budget");
     assert_fails(&bench(d, &["missing.hlod"]), "missing.hlod");
-    assert_fails(&bench(d, &["s.hlod", "--renderer", "wgpu"]), "--renderer");
+    assert_fails(&bench(d, &["s.hlod", "--renderer", "vulkan"]), "--renderer");
+    assert_fails(&bench(d, &["s.hlod", "--colouring", "pink"]), "colouring");
     assert_fails(
         &bench(d, &["s.hlod", "--disk", "floppy"]),
         "unknown disk model",
     );
     assert_fails(&bench(d, &["s.hlod", "--tolerance", "0"]), "tolerance");
+}
+
+#[test]
+fn wgpu_renderer_reports_image_quality_and_a_missing_adapter_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_scene(&d.join("s.hlod"));
+    let args = [
+        "s.hlod",
+        "--renderer",
+        "wgpu",
+        "--frames",
+        "20",
+        "--fps",
+        "0",
+        "--budget",
+        "1MiB",
+        "--width",
+        "160",
+        "--height",
+        "120",
+        "--psnr-every",
+        "5",
+        "--save-frames",
+        "--out",
+        "g",
+    ];
+    let out = bench(d, &args);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("Image quality against in-core"), "{text}");
+    let psnr = std::fs::read_to_string(d.join("g/psnr.csv")).unwrap();
+    // 4 samples for each of nopre and pre, plus the header.
+    assert_eq!(psnr.lines().count(), 9, "{psnr}");
+    assert!(d.join("g/frames/incore-00015.png").exists());
+    // Without any Vulkan driver: a clear error, no panic.
+    let out = Command::new(env!("CARGO_BIN_EXE_hlod-bench"))
+        .args(args)
+        .current_dir(d)
+        .env("VK_ICD_FILENAMES", "/nonexistent.json")
+        .env("VK_DRIVER_FILES", "/nonexistent.json")
+        .output()
+        .unwrap();
+    assert_fails(&out, "no usable GPU adapter");
 }
