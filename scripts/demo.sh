@@ -11,6 +11,11 @@ out=out/demo
 mkdir -p "$out"
 t0=$(date +%s%N)
 bash scripts/setup.sh
+# Mesa wants a private runtime directory (else it warns on every adapter start).
+if [ -z "${XDG_RUNTIME_DIR:-}" ]; then
+  export XDG_RUNTIME_DIR="$(mktemp -d)"
+  chmod 700 "$XDG_RUNTIME_DIR"
+fi
 t1=$(date +%s%N)
 cargo build --release --workspace
 t2=$(date +%s%N)

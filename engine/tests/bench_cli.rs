@@ -121,7 +121,10 @@ fn runs_and_rejects_bad_input_clearly() {
         assert!(d.join("o").join(f).exists(), "{f}");
     }
     let plot = engine::image::RgbaImage::load_png(&d.join("o/frame_time.png")).unwrap();
-    assert!(plot.coverage() > 0.02, "the plot has axes, labels and lines");
+    assert!(
+        plot.coverage() > 0.02,
+        "the plot has axes, labels and lines"
+    );
     let csv = std::fs::read_to_string(d.join("o/pre.csv")).unwrap();
     assert_eq!(csv.lines().count(), 31);
 
@@ -146,7 +149,12 @@ fn runs_and_rejects_bad_input_clearly() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    for f in ["incore.csv", "pre-1.00MiB.csv", "pre-2.00MiB.csv", "sweep.png"] {
+    for f in [
+        "incore.csv",
+        "pre-1.00MiB.csv",
+        "pre-2.00MiB.csv",
+        "sweep.png",
+    ] {
         assert!(d.join("sweep").join(f).exists(), "{f}");
     }
     let table = std::fs::read_to_string(d.join("sweep/summary.md")).unwrap();

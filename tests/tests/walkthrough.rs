@@ -72,3 +72,18 @@ fn three_modes_on_one_path_keep_the_budget_and_draw_the_same_fronts() {
     assert_eq!(fronts[0], fronts[1]);
     assert_eq!(fronts[0], fronts[2]);
 }
+
+#[test]
+fn committed_paths_parse_and_match_the_generator() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../paths");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "txt") {
+            let poses = engine::camera::read_path(&p).unwrap();
+            assert_eq!(poses.len(), 600, "{}", p.display());
+            n += 1;
+        }
+    }
+    assert!(n >= 3, "flythrough, approach and orbit of the demo plant");
+}

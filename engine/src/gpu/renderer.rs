@@ -575,7 +575,7 @@ impl Renderer for GpuRenderer {
         let depth = self.target.depth_view.clone();
         self.encode_frame(&color, &depth);
         let index = self.frame_no - 1;
-        let periodic = self.capture_every > 0 && index % self.capture_every == 0;
+        let periodic = self.capture_every > 0 && index.is_multiple_of(self.capture_every);
         if std::mem::take(&mut self.capture_next) || periodic {
             let img = self.read_back();
             if periodic && let Some(i) = &img {
