@@ -40,10 +40,8 @@ fn renderer(capacity: u64, colouring: Colouring) -> GpuRenderer {
     GpuRenderer::new(
         ctx,
         RendererConfig {
-            width: W,
-            height: H,
-            capacity_bytes: capacity,
             colouring,
+            ..RendererConfig::headless(W, H, capacity)
         },
     )
     .unwrap()
@@ -128,6 +126,46 @@ fn golden_images_of_the_cad_assembly() {
     check_golden("engine-back-lod", &c);
     assert_ne!(b, c, "the LOD colouring changes the image");
     assert!(r.context().take_errors().is_empty());
+}
+
+#[test]
+fn a_bgra_output_view_gets_the_same_frame_as_the_own_target() {
+    // The window path: frames drawn into a caller's texture (a surface's
+    // usual BGRA format) instead of the renderer's own target.
+    let glb = e2e_tests::data_dir().join("2CylinderEngine/2CylinderEngine.gltf");
+    let (_dir, scene) = build(&glb);
+    let (skel, source, data) = load(&scene);
+    let pose = overview(&skel, Vec3::new(1.0, 0.7, 1.3));
+    let ctx = GpuContext::new().unwrap();
+    let mut cfg = RendererConfig::headless(W, H, data);
+    cfg.color_format = wgpu::TextureFormat::Bgra8Unorm;
+    let mut r = GpuRenderer::new(ctx, cfg).unwrap();
+    let mut walk = Walkthrough::start(skel, source, params(Mode::Incore, 0, 1.0)).unwrap();
+    let own = shot(&mut walk, &mut r, &pose);
+    check_golden("engine-front", &own);
+    let device = r.context().device.clone();
+    let tex = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("surface stand-in"),
+        size: wgpu::Extent3d {
+            width: W,
+            height: H,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Bgra8Unorm,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    r.set_output(Some(tex.create_view(&Default::default())));
+    walk.frame(&pose, &mut r).unwrap();
+    let external = r.read_texture(&tex).unwrap();
+    assert_eq!(external, own);
+    assert!(r.context().take_errors().is_empty());
+    r.resize(W / 2, H / 2).unwrap();
+    assert_eq!(r.target_texture().width(), W / 2);
+    assert!(r.resize(0, 10).is_err());
 }
 
 /// Plays `poses`, capturing every `every`-th frame: (metrics, images).
@@ -220,4 +258,65 @@ fn equal_fronts_give_identical_images_and_gpu_memory_follows_the_budget() {
         "every sampled frame shows the plant"
     );
     eprintln!("{identical} identical frames, {substituted_frames} with substitutes");
+}
+
+#[test]
+fn a_small_arena_recycles_idle_gpu_copies() {
+    use engine::render::Renderer;
+    let glb = e2e_tests::data_dir().join("2CylinderEngine/2CylinderEngine.gltf");
+    let (_dir, path) = build(&glb);
+    let scene = SceneFile::open(&path).unwrap();
+    let skel = scene.skeleton().clone();
+    let payloads: Vec<Arc<[u8]>> = (0..skel.reps.len() as u32)
+        .map(|r| scene.read_rep_bytes(r).unwrap().into())
+        .collect();
+    let mut sizes: Vec<(u64, u32)> = (0..skel.reps.len() as u32)
+        .map(|r| (u64::from(skel.reps[r as usize].len), r))
+        .collect();
+    sizes.sort_unstable();
+    let big: Vec<u32> = sizes.iter().rev().take(6).map(|x| x.1).collect();
+    // Room for about three of the largest reps at a time.
+    let cap = sizes.iter().rev().take(3).map(|x| x.0).sum::<u64>();
+    let mut r = renderer(cap, Colouring::Object);
+    let view = engine::camera::View {
+        pose: overview(&skel, Vec3::ONE),
+        width_px: W,
+        height_px: H,
+        near: 0.01,
+        far: 1e4,
+    };
+    // Frames of two large reps each, cycling through six: every frame must
+    // make room by dropping copies that the previous frames left.
+    for f in 0..12 {
+        r.begin_frame(&view);
+        for k in 0..2 {
+            let rep = big[(2 * f + k) % big.len()];
+            r.draw(
+                rep,
+                &skel.reps[rep as usize],
+                &payloads[rep as usize],
+                false,
+            );
+        }
+        r.end_frame();
+        assert!(r.gpu_bytes() <= cap);
+    }
+    let s = r.stats();
+    assert_eq!(s.bad_payloads, 0);
+    assert_eq!(s.draws, 24, "every rep of every frame was drawn");
+    assert!(s.uploads >= 12, "copies were recycled and uploaded again");
+    assert!(s.max_live_bytes <= cap);
+    // A payload that does not match its record is refused, not drawn.
+    r.begin_frame(&view);
+    let wrong = big[0];
+    let other = sizes[0].1;
+    r.draw(
+        wrong,
+        &skel.reps[other as usize],
+        &payloads[wrong as usize],
+        false,
+    );
+    r.end_frame();
+    assert_eq!(r.stats().bad_payloads, 1);
+    assert!(r.context().take_errors().is_empty());
 }

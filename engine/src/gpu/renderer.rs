@@ -16,7 +16,6 @@ use crate::image::RgbaImage;
 use crate::render::Renderer;
 use crate::skeleton::RepId;
 
-const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 const BACKGROUND: wgpu::Color = wgpu::Color {
     r: 0.09,
@@ -64,6 +63,22 @@ pub struct RendererConfig {
     /// runtime holds fits), the scene's data size in-core.
     pub capacity_bytes: u64,
     pub colouring: Colouring,
+    /// Format of the colour target: `Rgba8Unorm` or `Bgra8Unorm` (and their
+    /// sRGB forms) — a window surface's format, or the headless default.
+    pub color_format: wgpu::TextureFormat,
+}
+
+impl RendererConfig {
+    /// A headless RGBA8 target of `width × height` holding `capacity_bytes`.
+    pub fn headless(width: u32, height: u32, capacity_bytes: u64) -> Self {
+        Self {
+            width,
+            height,
+            capacity_bytes,
+            colouring: Colouring::Object,
+            color_format: wgpu::TextureFormat::Rgba8Unorm,
+        }
+    }
 }
 
 /// Renderer counters.
@@ -142,6 +157,8 @@ pub struct GpuRenderer {
     frame_no: u32,
     view: Option<View>,
     target: Target,
+    /// Where frames go instead of `target.color` (a surface texture).
+    output: Option<wgpu::TextureView>,
     capture_next: bool,
     captured: Option<RgbaImage>,
     capture_every: u32,
@@ -156,6 +173,16 @@ impl GpuRenderer {
     pub fn new(ctx: GpuContext, cfg: RendererConfig) -> Result<Self, GpuError> {
         let limits = ctx.device.limits();
         let max_dim = limits.max_texture_dimension_2d;
+        use wgpu::TextureFormat as F;
+        if !matches!(
+            cfg.color_format,
+            F::Rgba8Unorm | F::Rgba8UnormSrgb | F::Bgra8Unorm | F::Bgra8UnormSrgb
+        ) {
+            return Err(GpuError::Params(format!(
+                "colour format {:?} not supported",
+                cfg.color_format
+            )));
+        }
         if cfg.width == 0 || cfg.height == 0 || cfg.width > max_dim || cfg.height > max_dim {
             return Err(GpuError::Params(format!(
                 "target size {}x{} outside 1..={max_dim}",
@@ -186,7 +213,7 @@ impl GpuRenderer {
                 layout_entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
             ],
         });
-        let pipeline = create_pipeline(device, &layout);
+        let pipeline = create_pipeline(device, &layout, cfg.color_format);
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("globals"),
             size: size_of::<Globals>() as u64,
@@ -195,7 +222,7 @@ impl GpuRenderer {
         });
         let draw_buf = draw_buffer(device, 1024);
         let bind_group = bind(device, &layout, &globals, &draw_buf);
-        let target = make_target(device, cfg.width, cfg.height);
+        let target = make_target(device, cfg.width, cfg.height, cfg.color_format);
         let errs = ctx.take_errors();
         if !errs.is_empty() {
             return Err(GpuError::Wgpu(errs.join("; ")));
@@ -215,6 +242,7 @@ impl GpuRenderer {
             frame_no: 0,
             view: None,
             target,
+            output: None,
             capture_next: false,
             captured: None,
             capture_every: 0,
@@ -261,9 +289,30 @@ impl GpuRenderer {
         self.captured.take()
     }
 
-    /// The texture frames are drawn into.
+    /// The texture frames are drawn into when no output is set.
     pub fn target_texture(&self) -> &wgpu::Texture {
         &self.target.color
+    }
+
+    /// Draws the following frames into `view` (e.g. a window surface's
+    /// texture, of the configured format and size) instead of the own
+    /// target; `None` goes back to the own target.
+    pub fn set_output(&mut self, view: Option<wgpu::TextureView>) {
+        self.output = view;
+    }
+
+    /// Changes the target size (a window resize).
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), GpuError> {
+        let max_dim = self.ctx.device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max_dim || height > max_dim {
+            return Err(GpuError::Params(format!(
+                "target size {width}x{height} outside 1..={max_dim}"
+            )));
+        }
+        self.cfg.width = width;
+        self.cfg.height = height;
+        self.target = make_target(&self.ctx.device, width, height, self.cfg.color_format);
+        Ok(())
     }
 
     fn free_slot(&mut self, rep: RepId) {
@@ -478,7 +527,13 @@ impl GpuRenderer {
     }
 
     fn read_back(&mut self) -> Option<RgbaImage> {
-        let (w, h) = (self.cfg.width, self.cfg.height);
+        let tex = self.target.color.clone();
+        self.read_texture(&tex)
+    }
+
+    /// Copies an 8-bit RGBA/BGRA texture (with `COPY_SRC` usage) to the CPU.
+    pub fn read_texture(&self, texture: &wgpu::Texture) -> Option<RgbaImage> {
+        let (w, h) = (texture.width(), texture.height());
         let row = (4 * w).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
         let device = &self.ctx.device;
         let buf = device.create_buffer(&wgpu::BufferDescriptor {
@@ -492,7 +547,7 @@ impl GpuRenderer {
         });
         enc.copy_texture_to_buffer(
             wgpu::TexelCopyTextureInfo {
-                texture: &self.target.color,
+                texture,
                 mip_level: 0,
                 origin: wgpu::Origin3d::ZERO,
                 aspect: wgpu::TextureAspect::All,
@@ -523,6 +578,12 @@ impl GpuRenderer {
         }
         drop(view);
         buf.unmap();
+        use wgpu::TextureFormat as F;
+        if matches!(texture.format(), F::Bgra8Unorm | F::Bgra8UnormSrgb) {
+            for px in data.chunks_exact_mut(4) {
+                px.swap(0, 2);
+            }
+        }
         Some(RgbaImage {
             width: w,
             height: h,
@@ -571,7 +632,10 @@ impl Renderer for GpuRenderer {
     }
 
     fn end_frame(&mut self) {
-        let color = self.target.color_view.clone();
+        let color = self
+            .output
+            .clone()
+            .unwrap_or_else(|| self.target.color_view.clone());
         let depth = self.target.depth_view.clone();
         self.encode_frame(&color, &depth);
         let index = self.frame_no - 1;
@@ -652,7 +716,11 @@ fn bind(
     })
 }
 
-fn create_pipeline(device: &wgpu::Device, layout: &wgpu::BindGroupLayout) -> wgpu::RenderPipeline {
+fn create_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    color_format: wgpu::TextureFormat,
+) -> wgpu::RenderPipeline {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("mesh.wgsl"),
         source: wgpu::ShaderSource::Wgsl(MESH_WGSL.into()),
@@ -694,7 +762,7 @@ fn create_pipeline(device: &wgpu::Device, layout: &wgpu::BindGroupLayout) -> wgp
             entry_point: Some("fs_main"),
             compilation_options: Default::default(),
             targets: &[Some(wgpu::ColorTargetState {
-                format: COLOR_FORMAT,
+                format: color_format,
                 blend: None,
                 write_mask: wgpu::ColorWrites::ALL,
             })],
@@ -704,7 +772,12 @@ fn create_pipeline(device: &wgpu::Device, layout: &wgpu::BindGroupLayout) -> wgp
     })
 }
 
-fn make_target(device: &wgpu::Device, width: u32, height: u32) -> Target {
+fn make_target(
+    device: &wgpu::Device,
+    width: u32,
+    height: u32,
+    color_format: wgpu::TextureFormat,
+) -> Target {
     let size = wgpu::Extent3d {
         width,
         height,
@@ -724,7 +797,7 @@ fn make_target(device: &wgpu::Device, width: u32, height: u32) -> Target {
     };
     let color = tex(
         "color",
-        COLOR_FORMAT,
+        color_format,
         wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
     );
     let depth = tex(

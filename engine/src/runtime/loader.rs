@@ -59,6 +59,11 @@ pub(super) struct Loader {
     scratch: Vec<RepId>,
     /// When the next fetch command is expected (paced runs).
     next_fetch: Option<Instant>,
+    /// When the last fetch command came, and a moving average of the time
+    /// between fetch commands (frames slower than the period leave P_I
+    /// more time to prefetch).
+    last_fetch_at: Option<Instant>,
+    fetch_interval_s: f64,
     /// Learnt read costs: seconds for a rep's first block (seek included, a
     /// decaying maximum) and per further byte (a moving average).
     first_block_s: f64,
@@ -110,6 +115,8 @@ impl Loader {
             class_frustum: None,
             scratch: Vec::new(),
             next_fetch: None,
+            last_fetch_at: None,
+            fetch_interval_s: 0.0,
             first_block_s: 0.0,
             per_byte_s: 0.0,
             front_stamp: vec![0; skeleton_nodes],
@@ -152,9 +159,17 @@ impl Loader {
                     turn_rad,
                     front,
                 } => {
-                    let period = self.params.frame_period_s;
-                    self.next_fetch = (period > 0.0)
-                        .then(|| Instant::now() + Duration::from_secs_f32(period * 0.95));
+                    let now = Instant::now();
+                    let period = f64::from(self.params.frame_period_s);
+                    if let Some(t) = self.last_fetch_at {
+                        // A stalled frame must not promise P_I a long window.
+                        let dt = (now - t).as_secs_f64().min(4.0 * period);
+                        self.fetch_interval_s += 0.25 * (dt - self.fetch_interval_s);
+                    }
+                    self.last_fetch_at = Some(now);
+                    let expect = period.max(self.fetch_interval_s);
+                    self.next_fetch =
+                        (period > 0.0).then(|| now + Duration::from_secs_f64(expect * 0.95));
                     if self.fetch(&front).is_err() {
                         return;
                     }
