@@ -259,14 +259,16 @@ fn run(a: Args) -> Result<()> {
                 let mut r = GpuRenderer::new(
                     ctx.clone(),
                     RendererConfig {
-                        width: a.width,
-                        height: a.height,
-                        capacity_bytes: if mode == Mode::Incore {
-                            data_bytes
-                        } else {
-                            budget
-                        },
                         colouring,
+                        ..RendererConfig::headless(
+                            a.width,
+                            a.height,
+                            if mode == Mode::Incore {
+                                data_bytes
+                            } else {
+                                budget
+                            },
+                        )
                     },
                 )?;
                 r.capture_every(a.psnr_every);
