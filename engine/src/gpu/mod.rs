@@ -14,6 +14,7 @@
 
 pub mod arena;
 mod renderer;
+mod resources;
 
 pub use renderer::{Colouring, GpuRenderer, GpuStats, RendererConfig};
 

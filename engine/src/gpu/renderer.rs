@@ -5,10 +5,12 @@ use std::mem::size_of;
 use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
-use glam::Mat4;
 
 use super::arena::{Alloc, Arena};
-use super::{GpuContext, GpuError, MESH_WGSL};
+use super::resources::{
+    Target, bind, create_pipeline, draw_buffer, layout_entry, make_target, read_texture, view_proj,
+};
+use super::{GpuContext, GpuError};
 use crate::camera::View;
 use crate::format::{PackedVertex, REP_MAGIC, RepHeader};
 use crate::format::{RepKind, RepRecord};
@@ -16,7 +18,6 @@ use crate::image::RgbaImage;
 use crate::render::Renderer;
 use crate::skeleton::RepId;
 
-const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 const BACKGROUND: wgpu::Color = wgpu::Color {
     r: 0.09,
     g: 0.10,
@@ -106,7 +107,7 @@ const _: () = assert!(size_of::<Globals>() == 80);
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct DrawData {
+pub(crate) struct DrawData {
     quant_min: [f32; 4],
     quant_extent: [f32; 4],
     tint: [f32; 4],
@@ -131,13 +132,6 @@ struct FrameDraw {
     level: u16,
     kind: u16,
     payload: Arc<[u8]>,
-}
-
-#[derive(Debug)]
-struct Target {
-    color: wgpu::Texture,
-    color_view: wgpu::TextureView,
-    depth_view: wgpu::TextureView,
 }
 
 /// Draws fronts with wgpu; see the module docs.
@@ -533,62 +527,7 @@ impl GpuRenderer {
 
     /// Copies an 8-bit RGBA/BGRA texture (with `COPY_SRC` usage) to the CPU.
     pub fn read_texture(&self, texture: &wgpu::Texture) -> Option<RgbaImage> {
-        let (w, h) = (texture.width(), texture.height());
-        let row = (4 * w).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-        let device = &self.ctx.device;
-        let buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: u64::from(row) * u64::from(h),
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("readback"),
-        });
-        enc.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buf,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(row),
-                    rows_per_image: Some(h),
-                },
-            },
-            wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-        );
-        self.ctx.queue.submit([enc.finish()]);
-        let slice = buf.slice(..);
-        slice.map_async(wgpu::MapMode::Read, |_| {});
-        device.poll(wgpu::PollType::wait_indefinitely()).ok()?;
-        let view = slice.get_mapped_range().ok()?;
-        let mut data = Vec::with_capacity((4 * w * h) as usize);
-        for y in 0..h as usize {
-            let start = y * row as usize;
-            data.extend_from_slice(&view[start..start + 4 * w as usize]);
-        }
-        drop(view);
-        buf.unmap();
-        use wgpu::TextureFormat as F;
-        if matches!(texture.format(), F::Bgra8Unorm | F::Bgra8UnormSrgb) {
-            for px in data.chunks_exact_mut(4) {
-                px.swap(0, 2);
-            }
-        }
-        Some(RgbaImage {
-            width: w,
-            height: h,
-            data,
-        })
+        read_texture(&self.ctx, texture)
     }
 }
 
@@ -658,156 +597,5 @@ impl Renderer for GpuRenderer {
 
     fn name(&self) -> &'static str {
         "wgpu"
-    }
-}
-
-/// Projection (reverse Z, infinite far plane) times view.
-pub(crate) fn view_proj(v: &View) -> Mat4 {
-    let proj = glam::camera::rh::proj::directx::perspective_infinite_reverse(
-        v.pose.fov_y_deg.to_radians(),
-        v.aspect(),
-        v.near,
-    );
-    let world_to_cam = Mat4::from_rotation_translation(v.pose.rotation, v.pose.position).inverse();
-    proj * world_to_cam
-}
-
-fn layout_entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-        ty: wgpu::BindingType::Buffer {
-            ty,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-fn draw_buffer(device: &wgpu::Device, entries: u64) -> wgpu::Buffer {
-    device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("draws"),
-        size: entries.max(1) * size_of::<DrawData>() as u64,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    })
-}
-
-fn bind(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    globals: &wgpu::Buffer,
-    draws: &wgpu::Buffer,
-) -> wgpu::BindGroup {
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("mesh"),
-        layout,
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: globals.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: draws.as_entire_binding(),
-            },
-        ],
-    })
-}
-
-fn create_pipeline(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    color_format: wgpu::TextureFormat,
-) -> wgpu::RenderPipeline {
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("mesh.wgsl"),
-        source: wgpu::ShaderSource::Wgsl(MESH_WGSL.into()),
-    });
-    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("mesh"),
-        bind_group_layouts: &[Some(layout)],
-        immediate_size: 0,
-    });
-    let attrs = wgpu::vertex_attr_array![0 => Unorm16x4, 1 => Snorm8x4, 2 => Unorm8x4];
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("mesh"),
-        layout: Some(&pl),
-        vertex: wgpu::VertexState {
-            module: &module,
-            entry_point: Some("vs_main"),
-            compilation_options: Default::default(),
-            buffers: &[Some(wgpu::VertexBufferLayout {
-                array_stride: size_of::<PackedVertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &attrs,
-            })],
-        },
-        primitive: wgpu::PrimitiveState {
-            topology: wgpu::PrimitiveTopology::TriangleList,
-            cull_mode: None,
-            ..Default::default()
-        },
-        depth_stencil: Some(wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(true),
-            depth_compare: Some(wgpu::CompareFunction::Greater),
-            stencil: Default::default(),
-            bias: Default::default(),
-        }),
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: &module,
-            entry_point: Some("fs_main"),
-            compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format: color_format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
-}
-
-fn make_target(
-    device: &wgpu::Device,
-    width: u32,
-    height: u32,
-    color_format: wgpu::TextureFormat,
-) -> Target {
-    let size = wgpu::Extent3d {
-        width,
-        height,
-        depth_or_array_layers: 1,
-    };
-    let tex = |label, format, usage| {
-        device.create_texture(&wgpu::TextureDescriptor {
-            label: Some(label),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format,
-            usage,
-            view_formats: &[],
-        })
-    };
-    let color = tex(
-        "color",
-        color_format,
-        wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-    );
-    let depth = tex(
-        "depth",
-        DEPTH_FORMAT,
-        wgpu::TextureUsages::RENDER_ATTACHMENT,
-    );
-    Target {
-        color_view: color.create_view(&Default::default()),
-        depth_view: depth.create_view(&Default::default()),
-        color,
     }
 }
