@@ -19,3 +19,39 @@ pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
         }
     }
 }
+
+/// Parses a memory footprint: bytes (with B/KB/MB/GB/KiB/MiB/GiB) or a
+/// percentage of `data_bytes` (`2.5%`).
+pub fn parse_budget(s: &str, data_bytes: u64) -> anyhow::Result<u64> {
+    use anyhow::{Context, bail};
+    let t = s.trim();
+    if let Some(p) = t.strip_suffix('%') {
+        let v: f64 = p
+            .trim()
+            .parse()
+            .with_context(|| format!("--budget {s:?}"))?;
+        if !(v > 0.0 && v <= 100.0) {
+            bail!("--budget {s:?}: a percentage must be in (0, 100]");
+        }
+        return Ok((data_bytes as f64 * v / 100.0) as u64);
+    }
+    let (num, mult) = [
+        ("GiB", 1u64 << 30),
+        ("MiB", 1 << 20),
+        ("KiB", 1 << 10),
+        ("GB", 1_000_000_000),
+        ("MB", 1_000_000),
+        ("KB", 1000),
+        ("B", 1),
+    ]
+    .iter()
+    .find_map(|(suf, m)| t.strip_suffix(suf).map(|n| (n.trim(), *m)))
+    .unwrap_or((t, 1));
+    let v: f64 = num
+        .parse()
+        .with_context(|| format!("--budget {s:?}: expected e.g. 25MiB or 2.5%"))?;
+    if !(v.is_finite() && v > 0.0) {
+        bail!("--budget {s:?} must be positive");
+    }
+    Ok((v * mult as f64) as u64)
+}

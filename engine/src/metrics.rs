@@ -42,16 +42,18 @@ pub struct FrameMetrics {
     pub prefetch_io_ms: f64,
     /// Rep geometry held by the renderer on the GPU (0 without a GPU).
     pub gpu_bytes: u64,
+    /// Prefetch candidates queued in P_I's bins at the end of Stage II.
+    pub prefetch_queue: u32,
 }
 
 /// CSV header matching [`FrameMetrics::csv_row`].
-pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes";
+pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue";
 
 impl FrameMetrics {
     /// One CSV line (no newline).
     pub fn csv_row(&self) -> String {
         format!(
-            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{}",
+            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{}",
             self.frame,
             self.mode,
             self.frame_ms,
@@ -77,7 +79,8 @@ impl FrameMetrics {
             self.miss_new,
             self.stage2_io_ms,
             self.prefetch_io_ms,
-            self.gpu_bytes
+            self.gpu_bytes,
+            self.prefetch_queue
         )
     }
 }

@@ -1,33 +1,80 @@
 //! `hlod-view`: the interactive walkthrough viewer.
 //!
-//! The winit + egui viewer is built on the out-of-core runtime and the wgpu
-//! renderer. Until those land, this binary opens a scene file, validates it and
-//! prints its skeleton summary, so that the command and crate exist in the
-//! workspace with their final names.
+//! Architecture: a winit window whose surface the wgpu scene renderer and the
+//! egui painter share (`gfx`); an open scene is a `session` (skeleton, the
+//! out-of-core walkthrough P_R/P_I, the renderer sized to the budget) that
+//! restarts when the mode, budget, ε or prefetch parameters change; `controls`
+//! turns keys and mouse into a camera pose (plain Rust, tested); `ui` is the
+//! overlay (metrics, live plots, settings, actions); `app` ties them together
+//! in winit's event loop, one frame per redraw: camera → front and loads →
+//! scene → overlay → screenshot → present. Path playback and recording use
+//! the `paths/` format; playback writes the same per-frame CSV as `hlod-bench`.
+//! A scene that fails to open or to read shows its error in the overlay and
+//! the log; the viewer stays usable.
+
+mod app;
+mod controls;
+mod gfx;
+mod session;
+mod ui;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{Context, Result};
+use clap::Parser;
 
-fn main() -> ExitCode {
-    engine::cli::main_with(run)
+/// Command line.
+#[derive(Parser, Debug, Clone)]
+#[command(
+    name = "hlod-view",
+    version,
+    about = "Walk through an out-of-core HLOD scene"
+)]
+pub struct Args {
+    /// Scene file (`hlod-build build` output); can also be opened from the overlay.
+    pub scene: Option<PathBuf>,
+    /// incore, nopre or pre.
+    #[arg(long, default_value = "pre")]
+    pub mode: String,
+    /// Memory footprint: bytes (KiB/MiB/GiB) or a percentage of the rep data.
+    #[arg(long, default_value = "8%")]
+    pub budget: String,
+    /// Error tolerance ε in pixels.
+    #[arg(long, default_value_t = 2.0)]
+    pub tolerance: f32,
+    /// file, hdd, ssd, nvme or LATENCY_MS:MB_PER_S.
+    #[arg(long, default_value = "file")]
+    pub disk: String,
+    /// object, lod, kind or substituted.
+    #[arg(long, default_value = "object")]
+    pub colouring: String,
+    /// Play this camera path (one pose per frame).
+    #[arg(long)]
+    pub path: Option<PathBuf>,
+    /// Record the camera path to this file (written when recording stops or at exit).
+    #[arg(long)]
+    pub record: Option<PathBuf>,
+    /// Per-frame metrics CSV of the run (as `hlod-bench` writes), plus `*-loop.csv` with the whole loop time.
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+    /// Quit after this many frames.
+    #[arg(long)]
+    pub exit_after: Option<u64>,
+    /// Save the last frame (with the overlay) as PNG at exit.
+    #[arg(long)]
+    pub screenshot: Option<PathBuf>,
+    #[arg(long, default_value_t = 1280)]
+    pub width: u32,
+    #[arg(long, default_value_t = 720)]
+    pub height: u32,
+    /// Wait for vertical sync (default: present as fast as possible).
+    #[arg(long)]
+    pub vsync: bool,
+    /// Hide the overlay.
+    #[arg(long)]
+    pub no_overlay: bool,
 }
 
-fn run() -> Result<()> {
-    let path: PathBuf = std::env::args_os()
-        .nth(1)
-        .map(PathBuf::from)
-        .context("usage: hlod-view SCENE.hlod")?;
-    let scene = engine::SceneFile::open(&path).with_context(|| path.display().to_string())?;
-    let s = scene.skeleton();
-    println!(
-        "{}: {} nodes, {} object-reps, height {}, {} objects (interactive viewing is not implemented yet)",
-        path.display(),
-        s.nodes.len(),
-        s.reps.len(),
-        s.height(),
-        scene.meta().object_count
-    );
-    Ok(())
+fn main() -> ExitCode {
+    engine::cli::main_with(|| app::run(Args::parse()))
 }

@@ -17,6 +17,7 @@ mod renderer;
 mod resources;
 
 pub use renderer::{Colouring, GpuRenderer, GpuStats, RendererConfig};
+pub use resources::read_texture;
 
 use std::sync::{Arc, Mutex};
 

@@ -295,6 +295,18 @@ impl GpuRenderer {
         self.output = view;
     }
 
+    /// Drops every GPU copy (the runtime restarted with a new resident set).
+    pub fn clear(&mut self) {
+        self.slots.clear();
+        self.arena.reset();
+        self.stats.live_bytes = 0;
+    }
+
+    /// The configuration in force.
+    pub fn config(&self) -> &RendererConfig {
+        &self.cfg
+    }
+
     /// Changes the target size (a window resize).
     pub fn resize(&mut self, width: u32, height: u32) -> Result<(), GpuError> {
         let max_dim = self.ctx.device.limits().max_texture_dimension_2d;

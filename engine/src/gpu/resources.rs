@@ -21,7 +21,7 @@ pub(crate) struct Target {
 }
 
 /// Copies an 8-bit RGBA/BGRA texture (with `COPY_SRC` usage) to the CPU.
-pub(crate) fn read_texture(ctx: &GpuContext, texture: &wgpu::Texture) -> Option<RgbaImage> {
+pub fn read_texture(ctx: &GpuContext, texture: &wgpu::Texture) -> Option<RgbaImage> {
     let (w, h) = (texture.width(), texture.height());
     let row = (4 * w).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
     let device = &ctx.device;

@@ -262,6 +262,7 @@ impl Loader {
             }
         }
         self.stats.resident_bytes = self.resident;
+        self.stats.prefetch_queue = self.bins.len() as u32;
         let stats = std::mem::take(&mut self.stats);
         self.stats.max_resident_bytes = self.resident;
         self.send(Reply::Done(stats))

@@ -245,6 +245,8 @@ struct StageStats {
     miss_new: u32,
     stage2_io_s: f64,
     prefetch_io_s: f64,
+    /// Prefetch candidates waiting in the bins at the end of Stage II.
+    prefetch_queue: u32,
 }
 
 /// P_R: drives frames against a running P_I.
@@ -324,6 +326,18 @@ impl Walkthrough {
         &self.params
     }
 
+    /// Changes the viewport (a window resize); P_I gets it with each view.
+    pub fn set_viewport(&mut self, width_px: u32, height_px: u32) -> Result<(), RuntimeError> {
+        let p = RuntimeParams {
+            width_px,
+            height_px,
+            ..self.params
+        };
+        p.check()?;
+        self.params = p;
+        Ok(())
+    }
+
     /// The view for a pose under these parameters.
     pub fn view(&self, pose: &Pose) -> View {
         View {
@@ -341,6 +355,18 @@ impl Walkthrough {
         pose: &Pose,
         renderer: &mut dyn Renderer,
     ) -> Result<FrameMetrics, RuntimeError> {
+        self.frame_split(pose, pose, renderer)
+    }
+
+    /// Computes the front (and loads it) for `front_pose` but draws it seen
+    /// from `draw_pose`: a frozen front inspected from elsewhere.
+    pub fn frame_split(
+        &mut self,
+        front_pose: &Pose,
+        draw_pose: &Pose,
+        renderer: &mut dyn Renderer,
+    ) -> Result<FrameMetrics, RuntimeError> {
+        let pose = front_pose;
         let t0 = Instant::now();
         let view = self.view(pose);
         let mut front = Vec::new();
@@ -377,7 +403,7 @@ impl Walkthrough {
             m.front_tris += u64::from(rec.tri_count);
             m.front_bytes += u64::from(rec.len);
         }
-        renderer.begin_frame(&view);
+        renderer.begin_frame(&self.view(draw_pose));
         let mut wait = 0.0;
         let stats = loop {
             let reply = match self.replies.try_recv() {
@@ -431,6 +457,7 @@ impl Walkthrough {
         m.miss_new = stats.miss_new;
         m.stage2_io_ms = stats.stage2_io_s * 1e3;
         m.prefetch_io_ms = stats.prefetch_io_s * 1e3;
+        m.prefetch_queue = stats.prefetch_queue;
         m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok(m)
     }

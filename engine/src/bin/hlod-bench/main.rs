@@ -100,39 +100,6 @@ fn main() -> ExitCode {
     engine::cli::main_with(|| run(Args::parse()))
 }
 
-fn parse_budget(s: &str, data_bytes: u64) -> Result<u64> {
-    let t = s.trim();
-    if let Some(p) = t.strip_suffix('%') {
-        let v: f64 = p
-            .trim()
-            .parse()
-            .with_context(|| format!("--budget {s:?}"))?;
-        if !(v > 0.0 && v <= 100.0) {
-            bail!("--budget {s:?}: a percentage must be in (0, 100]");
-        }
-        return Ok((data_bytes as f64 * v / 100.0) as u64);
-    }
-    let (num, mult) = [
-        ("GiB", 1u64 << 30),
-        ("MiB", 1 << 20),
-        ("KiB", 1 << 10),
-        ("GB", 1_000_000_000),
-        ("MB", 1_000_000),
-        ("KB", 1000),
-        ("B", 1),
-    ]
-    .iter()
-    .find_map(|(suf, m)| t.strip_suffix(suf).map(|n| (n.trim(), *m)))
-    .unwrap_or((t, 1));
-    let v: f64 = num
-        .parse()
-        .with_context(|| format!("--budget {s:?}: expected e.g. 25MiB or 2.5%"))?;
-    if !(v.is_finite() && v > 0.0) {
-        bail!("--budget {s:?} must be positive");
-    }
-    Ok((v * mult as f64) as u64)
-}
-
 fn run(a: Args) -> Result<()> {
     let colouring = Colouring::parse(&a.colouring).map_err(anyhow::Error::msg)?;
     let gpu = match a.renderer.as_str() {
@@ -171,9 +138,9 @@ fn run(a: Args) -> Result<()> {
     let budgets: Vec<u64> = match &a.budgets {
         Some(list) => list
             .split(',')
-            .map(|b| parse_budget(b, data_bytes))
+            .map(|b| engine::cli::parse_budget(b, data_bytes))
             .collect::<Result<_>>()?,
-        None => vec![parse_budget(&a.budget, data_bytes)?],
+        None => vec![engine::cli::parse_budget(&a.budget, data_bytes)?],
     };
     let budget = budgets[0];
     let root = &skel.nodes[0];

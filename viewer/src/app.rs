@@ -1,0 +1,479 @@
+//! The event loop: input → camera → frame → overlay → present.
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{Context, Result, anyhow};
+use engine::camera::{Pose, format_path, read_path};
+use engine::disk::DiskModel;
+use engine::gpu::Colouring;
+use engine::metrics::{FrameMetrics, to_csv};
+use engine::runtime::{Mode, RuntimeParams};
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{KeyCode, PhysicalKey};
+use winit::window::{Window, WindowId};
+
+use crate::Args;
+use crate::controls::{Controls, Held, clip_planes};
+use crate::gfx::Gfx;
+use crate::session::{Session, Settings};
+use crate::ui::{self, Sample, UiState};
+
+/// Frames kept for the overlay's plots.
+const HISTORY: usize = 300;
+
+/// Runs the viewer until the window closes or `--exit-after` frames.
+pub fn run(args: Args) -> Result<()> {
+    let settings = initial_settings(&args)?;
+    let path = match &args.path {
+        Some(p) => Some(read_path(p)?),
+        None => None,
+    };
+    let event_loop = EventLoop::new().context("no display (set DISPLAY or run under Xvfb)")?;
+    event_loop.set_control_flow(ControlFlow::Poll);
+    let mut app = App::new(args, settings, path);
+    event_loop.run_app(&mut app)?;
+    app.finish()
+}
+
+fn initial_settings(a: &Args) -> Result<Settings> {
+    let mode = Mode::parse(&a.mode).map_err(anyhow::Error::msg)?;
+    let colouring = Colouring::parse(&a.colouring).map_err(anyhow::Error::msg)?;
+    let disk = match a.disk.as_str() {
+        "file" => None,
+        d => Some(DiskModel::parse(d).map_err(anyhow::Error::msg)?),
+    };
+    let params = RuntimeParams {
+        mode,
+        tolerance_px: a.tolerance,
+        width_px: a.width,
+        height_px: a.height,
+        ..RuntimeParams::default()
+    };
+    params.check()?;
+    // The fraction is fixed once the scene's size is known.
+    engine::cli::parse_budget(&a.budget, 1 << 30)?;
+    Ok(Settings {
+        mode,
+        budget_fraction: 0.08,
+        params,
+        colouring,
+        disk,
+    })
+}
+
+struct App {
+    args: Args,
+    settings: Settings,
+    gfx: Option<Gfx>,
+    session: Option<Session>,
+    error: Option<String>,
+    controls: Controls,
+    held: Held,
+    looking: bool,
+    cursor: Option<(f64, f64)>,
+    frozen: Option<Pose>,
+    ui: UiState,
+    history: VecDeque<Sample>,
+    play: Option<(Vec<Pose>, usize)>,
+    recording: Option<Vec<Pose>>,
+    run_metrics: Vec<FrameMetrics>,
+    run_loop_ms: Vec<f64>,
+    frames: u64,
+    last: Instant,
+    screenshot_to: Option<PathBuf>,
+    fatal: Option<anyhow::Error>,
+}
+
+impl App {
+    fn new(args: Args, settings: Settings, path: Option<Vec<Pose>>) -> Self {
+        let recording = args.record.as_ref().map(|_| Vec::new());
+        Self {
+            ui: UiState {
+                open_text: args
+                    .scene
+                    .as_ref()
+                    .map(|p| p.display().to_string())
+                    .unwrap_or_default(),
+                path_text: args
+                    .path
+                    .as_ref()
+                    .map(|p| p.display().to_string())
+                    .unwrap_or_default(),
+                frozen: false,
+            },
+            args,
+            settings,
+            gfx: None,
+            session: None,
+            error: None,
+            controls: Controls::new(glam::Vec3::splat(-1.0), glam::Vec3::splat(1.0)),
+            held: Held::default(),
+            looking: false,
+            cursor: None,
+            frozen: None,
+            history: VecDeque::new(),
+            play: path.map(|p| (p, 0)),
+            recording,
+            run_metrics: Vec::new(),
+            run_loop_ms: Vec::new(),
+            frames: 0,
+            last: Instant::now(),
+            screenshot_to: None,
+            fatal: None,
+        }
+    }
+
+    fn report(&mut self, msg: String) {
+        tracing::error!("{msg}");
+        self.error = Some(msg);
+    }
+
+    fn open(&mut self, path: &Path) {
+        let Some(gfx) = &self.gfx else { return };
+        self.session = None;
+        let size = (gfx.config.width, gfx.config.height);
+        // Resolve a byte budget against this scene's size.
+        let data = engine::SceneFile::open(path)
+            .map(|s| {
+                s.skeleton()
+                    .reps
+                    .iter()
+                    .map(|r| u64::from(r.len))
+                    .sum::<u64>()
+            })
+            .unwrap_or(1);
+        let mut s = self.settings;
+        if let Ok(b) = engine::cli::parse_budget(&self.args.budget, data.max(1)) {
+            s.budget_fraction = (b as f64 / data.max(1) as f64).clamp(1e-6, 1.0);
+        }
+        let (mut near, mut far) = (s.params.near, s.params.far);
+        if let Ok(f) = engine::SceneFile::open(path) {
+            let r = &f.skeleton().nodes[0];
+            let diag = (glam::Vec3::from(r.bbox_max) - glam::Vec3::from(r.bbox_min)).length();
+            (near, far) = clip_planes(diag);
+        }
+        s.params.near = near;
+        s.params.far = far;
+        s.params.width_px = size.0;
+        s.params.height_px = size.1;
+        match Session::open(path, &gfx.ctx, s, size, gfx.config.format) {
+            Ok(sess) => {
+                let (min, max) = sess.bounds();
+                self.controls.frame_all(min, max);
+                if let Some((p, _)) = &self.play
+                    && let Some(first) = p.first()
+                {
+                    self.controls.set_pose(first);
+                }
+                self.settings = sess.settings;
+                self.session = Some(sess);
+                self.error = None;
+            }
+            Err(e) => self.report(format!("cannot open {}: {e}", path.display())),
+        }
+    }
+
+    fn key(&mut self, code: KeyCode, down: bool) {
+        let h = &mut self.held;
+        match code {
+            KeyCode::KeyW | KeyCode::ArrowUp => h.forward = down,
+            KeyCode::KeyS | KeyCode::ArrowDown => h.back = down,
+            KeyCode::KeyA | KeyCode::ArrowLeft => h.left = down,
+            KeyCode::KeyD | KeyCode::ArrowRight => h.right = down,
+            KeyCode::KeyE | KeyCode::PageUp => h.up = down,
+            KeyCode::KeyQ | KeyCode::PageDown => h.down = down,
+            KeyCode::ShiftLeft | KeyCode::ShiftRight => h.run = down,
+            _ if !down => {}
+            KeyCode::Tab => self.controls.toggle_mode(),
+            KeyCode::Home => self.frame_all(),
+            KeyCode::KeyF => self.ui.frozen = !self.ui.frozen,
+            KeyCode::KeyR => self.toggle_record(),
+            KeyCode::F12 => self.screenshot_to = Some(self.next_shot_name()),
+            _ => {}
+        }
+    }
+
+    fn frame_all(&mut self) {
+        if let Some(s) = &self.session {
+            let (min, max) = s.bounds();
+            self.controls.frame_all(min, max);
+        }
+    }
+
+    fn next_shot_name(&self) -> PathBuf {
+        PathBuf::from(format!("hlod-view-{:06}.png", self.frames))
+    }
+
+    fn toggle_record(&mut self) {
+        match self.recording.take() {
+            None => self.recording = Some(Vec::new()),
+            Some(poses) => self.save_recording(&poses),
+        }
+    }
+
+    fn save_recording(&mut self, poses: &[Pose]) {
+        let to = self
+            .args
+            .record
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("hlod-view-path.txt"));
+        match std::fs::write(&to, format_path(poses)) {
+            Ok(()) => tracing::info!("recorded {} poses to {}", poses.len(), to.display()),
+            Err(e) => self.report(format!("cannot write {}: {e}", to.display())),
+        }
+    }
+
+    fn redraw(&mut self, event_loop: &ActiveEventLoop) {
+        let now = Instant::now();
+        let dt = (now - self.last).as_secs_f32();
+        self.last = now;
+        let pose = match &mut self.play {
+            Some((poses, i)) if *i < poses.len() => {
+                let p = poses[*i];
+                *i += 1;
+                p
+            }
+            _ => {
+                if self.play.take().is_some() {
+                    tracing::info!("path finished");
+                }
+                self.controls.update(&self.held, dt);
+                self.controls.pose()
+            }
+        };
+        if let Some(r) = &mut self.recording {
+            r.push(pose);
+        }
+        if self.ui.frozen && self.frozen.is_none() {
+            self.frozen = Some(pose);
+        } else if !self.ui.frozen {
+            self.frozen = None;
+        }
+        let Some(gfx) = &mut self.gfx else { return };
+        let Some(frame) = gfx.acquire() else { return };
+        let mut metrics = None;
+        match &mut self.session {
+            Some(s) => {
+                s.renderer.set_output(Some(frame.view.clone()));
+                let front_pose = self.frozen.unwrap_or(pose);
+                let res = s.frame(&front_pose, &pose);
+                s.renderer.set_output(None);
+                match res {
+                    Ok(m) => metrics = Some(m),
+                    Err(e) => {
+                        gfx.clear(&frame.view);
+                        self.error = Some(e);
+                    }
+                }
+            }
+            None => gfx.clear(&frame.view),
+        }
+        let mut actions = ui::Actions::default();
+        if !self.args.no_overlay {
+            let raw = gfx.egui_state.take_egui_input(&gfx.window);
+            let view = ui::View {
+                scene: self.session.as_ref().and_then(|s| s.path.to_str()),
+                error: self.error.as_deref(),
+                settings: self.session.as_ref().map(|s| s.settings),
+                budget_bytes: self.session.as_ref().map_or(0, |s| s.budget_bytes()),
+                recording: self.recording.as_ref().map(Vec::len),
+                playing: self.play.as_ref().map(|(p, i)| (*i, p.len())),
+                fly_speed: self.controls.speed,
+                orbit: self.controls.mode == crate::controls::ControlMode::Orbit,
+            };
+            let (ui_state, hist) = (&mut self.ui, &self.history);
+            let out = gfx
+                .egui_ctx
+                .run_pass(raw, |ctx| actions = ui::draw(ctx, ui_state, &view, hist));
+            gfx.paint_egui(&frame.view, out);
+        }
+        let mut problems: Vec<String> = Vec::new();
+        let exiting = self.args.exit_after.is_some_and(|n| self.frames + 1 >= n);
+        if exiting && let Some(p) = &self.args.screenshot {
+            self.screenshot_to = Some(p.clone());
+        }
+        if let Some(to) = self.screenshot_to.take() {
+            let img = if gfx.copy_src {
+                engine::gpu::read_texture(&gfx.ctx, &frame.texture.texture)
+            } else {
+                None
+            };
+            match img {
+                Some(img) => match img.save_png(&to) {
+                    Ok(()) => println!("screenshot: {}", to.display()),
+                    Err(e) => problems.push(e.to_string()),
+                },
+                None => problems.push("this surface cannot be read back for a screenshot".into()),
+            }
+        }
+        gfx.ctx.queue.present(frame.texture);
+        for e in gfx.ctx.take_errors() {
+            problems.push(format!("GPU: {e}"));
+        }
+        for p in problems {
+            self.report(p);
+        }
+        let loop_ms = now.elapsed().as_secs_f64() * 1e3;
+        if let Some(m) = metrics {
+            if self.args.csv.is_some() {
+                self.run_metrics.push(m.clone());
+                self.run_loop_ms.push(loop_ms);
+            }
+            self.history.push_back(Sample { loop_ms, m });
+            if self.history.len() > HISTORY {
+                self.history.pop_front();
+            }
+        }
+        self.frames += 1;
+        self.apply(actions);
+        if exiting {
+            event_loop.exit();
+        }
+    }
+
+    fn apply(&mut self, a: ui::Actions) {
+        if let Some(p) = a.open {
+            self.open(Path::new(p.trim()));
+        }
+        if let (Some(s), Some(sess), Some(gfx)) = (a.settings, &mut self.session, &self.gfx) {
+            if let Err(e) = sess.apply(&gfx.ctx, s) {
+                self.report(e);
+            } else {
+                self.settings = s;
+            }
+        }
+        if let Some(p) = a.play {
+            match read_path(Path::new(p.trim())) {
+                Ok(poses) => self.play = Some((poses, 0)),
+                Err(e) => self.report(e.to_string()),
+            }
+        }
+        if a.toggle_record {
+            self.toggle_record();
+        }
+        if a.screenshot {
+            self.screenshot_to = Some(self.next_shot_name());
+        }
+        if a.frame_all {
+            self.frame_all();
+        }
+    }
+
+    fn finish(mut self) -> Result<()> {
+        if let Some(poses) = self.recording.take() {
+            self.save_recording(&poses);
+        }
+        if let Some(csv) = &self.args.csv {
+            std::fs::write(csv, to_csv(&self.run_metrics))
+                .with_context(|| csv.display().to_string())?;
+            let mut loops = String::from("frame,loop_ms\n");
+            for (i, t) in self.run_loop_ms.iter().enumerate() {
+                loops.push_str(&format!("{i},{t:.3}\n"));
+            }
+            let stem = csv.with_extension("");
+            std::fs::write(format!("{}-loop.csv", stem.display()), loops)?;
+        }
+        // Drop the walkthrough (joins P_I) before the window goes.
+        self.session = None;
+        match self.fatal.take() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.gfx.is_some() {
+            return;
+        }
+        let attrs = Window::default_attributes()
+            .with_title("hlod-view")
+            .with_inner_size(winit::dpi::PhysicalSize::new(
+                self.args.width,
+                self.args.height,
+            ));
+        let gfx = event_loop
+            .create_window(attrs)
+            .map_err(|e| anyhow!("cannot create a window: {e}"))
+            .and_then(|w| Gfx::new(Arc::new(w), self.args.vsync));
+        match gfx {
+            Ok(g) => {
+                tracing::info!("GPU adapter: {}", g.ctx.describe());
+                self.gfx = Some(g);
+                if let Some(p) = self.args.scene.clone() {
+                    self.open(&p);
+                }
+            }
+            Err(e) => {
+                self.fatal = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let consumed = match &mut self.gfx {
+            Some(g) if !self.args.no_overlay => {
+                g.egui_state.on_window_event(&g.window, &event).consumed
+            }
+            _ => false,
+        };
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => {
+                if let Some(g) = &mut self.gfx {
+                    g.resize(size.width, size.height);
+                }
+                if let Some(s) = &mut self.session
+                    && size.width > 0
+                    && size.height > 0
+                    && let Err(e) = s.resize(size.width, size.height)
+                {
+                    self.report(e);
+                }
+            }
+            WindowEvent::RedrawRequested => self.redraw(event_loop),
+            WindowEvent::KeyboardInput { event, .. } if !consumed => {
+                if let PhysicalKey::Code(c) = event.physical_key {
+                    self.key(c, event.state == ElementState::Pressed);
+                }
+            }
+            WindowEvent::MouseInput {
+                state,
+                button: MouseButton::Right,
+                ..
+            } => {
+                self.looking = state == ElementState::Pressed && !consumed;
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = (position.x, position.y);
+                if self.looking
+                    && let Some(c) = self.cursor
+                {
+                    self.controls.look((p.0 - c.0) as f32, (p.1 - c.1) as f32);
+                }
+                self.cursor = Some(p);
+            }
+            WindowEvent::MouseWheel { delta, .. } if !consumed => {
+                let steps = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
+                };
+                self.controls.wheel(steps);
+            }
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {
+        if let Some(g) = &self.gfx {
+            g.window.request_redraw();
+        }
+    }
+}

@@ -1,0 +1,197 @@
+//! A scene opened in the viewer: its skeleton, the running walkthrough
+//! (P_R/P_I) and the wgpu renderer sized to the budget. Changing the mode,
+//! budget, tolerance or prefetch parameters restarts the walkthrough; errors
+//! are returned as text for the overlay, never panics.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use engine::disk::{DiskModel, ThrottledSource};
+use engine::gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
+use engine::runtime::{Mode, RuntimeParams, Walkthrough};
+use engine::{ByteSource, FileSource, SceneFile, Skeleton};
+use glam::Vec3;
+
+/// What the user can change at run time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    pub mode: Mode,
+    /// Budget as a fraction of the scene's rep data.
+    pub budget_fraction: f64,
+    pub params: RuntimeParams,
+    pub colouring: Colouring,
+    pub disk: Option<DiskModel>,
+}
+
+/// An open scene with its walkthrough.
+pub struct Session {
+    pub path: PathBuf,
+    pub skeleton: Arc<Skeleton>,
+    pub data_bytes: u64,
+    walk: Option<Walkthrough>,
+    pub renderer: GpuRenderer,
+    pub settings: Settings,
+}
+
+impl std::fmt::Debug for Session {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Session")
+            .field("path", &self.path)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Session {
+    /// Opens `path` and starts the walkthrough; `Err` is a message to show.
+    pub fn open(
+        path: &Path,
+        ctx: &GpuContext,
+        settings: Settings,
+        size: (u32, u32),
+        color_format: wgpu::TextureFormat,
+    ) -> Result<Self, String> {
+        let scene = SceneFile::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let skeleton = Arc::new(scene.skeleton().clone());
+        let data_bytes = skeleton.reps.iter().map(|r| u64::from(r.len)).sum();
+        let (walk, renderer) = start(
+            path,
+            &skeleton,
+            data_bytes,
+            ctx,
+            &settings,
+            size,
+            color_format,
+        )?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            skeleton,
+            data_bytes,
+            walk: Some(walk),
+            renderer,
+            settings,
+        })
+    }
+
+    /// One frame: the front (and its loads) for `front_pose`, drawn from
+    /// `draw_pose` into the renderer's output.
+    pub fn frame(
+        &mut self,
+        front_pose: &engine::camera::Pose,
+        draw_pose: &engine::camera::Pose,
+    ) -> Result<engine::metrics::FrameMetrics, String> {
+        let walk = self
+            .walk
+            .as_mut()
+            .ok_or_else(|| "the walkthrough is not running (see the error above)".to_string())?;
+        walk.frame_split(front_pose, draw_pose, &mut self.renderer)
+            .map_err(|e| e.to_string())
+    }
+
+    /// The scene's bounds.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let r = &self.skeleton.nodes[0];
+        (Vec3::from(r.bbox_min), Vec3::from(r.bbox_max))
+    }
+
+    /// The budget in bytes under the current settings.
+    pub fn budget_bytes(&self) -> u64 {
+        budget(self.data_bytes, self.settings.budget_fraction)
+    }
+
+    /// Applies new settings: a restart when the runtime's parameters change,
+    /// just a new colouring otherwise.
+    pub fn apply(&mut self, ctx: &GpuContext, s: Settings) -> Result<(), String> {
+        if s == self.settings {
+            return Ok(());
+        }
+        let restart = Settings {
+            colouring: self.settings.colouring,
+            ..s
+        } != self.settings;
+        self.renderer.set_colouring(s.colouring);
+        self.settings = s;
+        if restart {
+            let cfg = *self.renderer.config();
+            // The old P_I stops (and frees its reps) before the new one reads.
+            self.walk = None;
+            self.renderer.clear();
+            let (walk, renderer) = start(
+                &self.path,
+                &self.skeleton,
+                self.data_bytes,
+                ctx,
+                &s,
+                (cfg.width, cfg.height),
+                cfg.color_format,
+            )?;
+            self.walk = Some(walk);
+            self.renderer = renderer;
+        }
+        Ok(())
+    }
+
+    /// Follows a window resize.
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), String> {
+        self.renderer
+            .resize(width, height)
+            .map_err(|e| e.to_string())?;
+        self.settings.params.width_px = width;
+        self.settings.params.height_px = height;
+        if let Some(w) = &mut self.walk {
+            w.set_viewport(width, height).map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    }
+}
+
+fn budget(data: u64, fraction: f64) -> u64 {
+    ((data as f64 * fraction) as u64).max(1)
+}
+
+fn start_walk(
+    path: &Path,
+    skel: &Arc<Skeleton>,
+    data_bytes: u64,
+    s: &Settings,
+) -> Result<Walkthrough, String> {
+    let file = FileSource::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let source: Arc<dyn ByteSource> = match (s.mode, s.disk) {
+        (Mode::Incore, _) | (_, None) => Arc::new(file),
+        (_, Some(m)) => Arc::new(ThrottledSource::new(file, m)),
+    };
+    let params = RuntimeParams {
+        mode: s.mode,
+        budget_bytes: budget(data_bytes, s.budget_fraction),
+        ..s.params
+    };
+    Walkthrough::start(skel.clone(), source, params).map_err(|e| e.to_string())
+}
+
+fn start(
+    path: &Path,
+    skel: &Arc<Skeleton>,
+    data_bytes: u64,
+    ctx: &GpuContext,
+    s: &Settings,
+    size: (u32, u32),
+    color_format: wgpu::TextureFormat,
+) -> Result<(Walkthrough, GpuRenderer), String> {
+    let walk = start_walk(path, skel, data_bytes, s)?;
+    let capacity = if s.mode == Mode::Incore {
+        data_bytes
+    } else {
+        budget(data_bytes, s.budget_fraction)
+    };
+    let renderer = GpuRenderer::new(
+        ctx.clone(),
+        RendererConfig {
+            width: size.0,
+            height: size.1,
+            capacity_bytes: capacity,
+            colouring: s.colouring,
+            color_format,
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    Ok((walk, renderer))
+}
