@@ -87,6 +87,9 @@ struct App {
     last: Instant,
     screenshot_to: Option<PathBuf>,
     fatal: Option<anyhow::Error>,
+    /// When the overlay is next repainted (it is cached between).
+    ui_due: Instant,
+    ui_dirty: bool,
 }
 
 impl App {
@@ -125,6 +128,8 @@ impl App {
             last: Instant::now(),
             screenshot_to: None,
             fatal: None,
+            ui_due: Instant::now(),
+            ui_dirty: true,
         }
     }
 
@@ -257,24 +262,45 @@ impl App {
         let Some(gfx) = &mut self.gfx else { return };
         let Some(frame) = gfx.acquire() else { return };
         let mut metrics = None;
+        // Draw offscreen and copy when the surface allows it (see `Gfx::copy_dst`).
+        let offscreen = gfx.copy_dst
+            && self.session.as_ref().is_some_and(|s| {
+                let t = s.renderer.target_texture();
+                (t.width(), t.height()) == (gfx.config.width, gfx.config.height)
+            });
+        let target = match (&self.session, offscreen) {
+            (Some(s), true) => s.renderer.target_view().clone(),
+            _ => frame.view.clone(),
+        };
         match &mut self.session {
             Some(s) => {
-                s.renderer.set_output(Some(frame.view.clone()));
+                s.renderer
+                    .set_output((!offscreen).then(|| frame.view.clone()));
                 let front_pose = self.frozen.unwrap_or(pose);
                 let res = s.frame(&front_pose, &pose);
                 s.renderer.set_output(None);
                 match res {
                     Ok(m) => metrics = Some(m),
                     Err(e) => {
-                        gfx.clear(&frame.view);
+                        gfx.clear(&target);
                         self.error = Some(e);
                     }
                 }
             }
-            None => gfx.clear(&frame.view),
+            None => gfx.clear(&target),
         }
         let mut actions = ui::Actions::default();
-        if !self.args.no_overlay {
+        let exiting = self.args.exit_after.is_some_and(|n| self.frames + 1 >= n);
+        let refresh =
+            self.ui_dirty || now >= self.ui_due || exiting || self.screenshot_to.is_some();
+        if !self.args.no_overlay && refresh {
+            self.ui_dirty = false;
+            let hz = if self.args.overlay_hz > 0.0 {
+                self.args.overlay_hz
+            } else {
+                2.0
+            };
+            self.ui_due = now + std::time::Duration::from_secs_f64(1.0 / hz.min(1000.0));
             let raw = gfx.egui_state.take_egui_input(&gfx.window);
             let view = ui::View {
                 scene: self.session.as_ref().and_then(|s| s.path.to_str()),
@@ -290,18 +316,23 @@ impl App {
             let out = gfx
                 .egui_ctx
                 .run_pass(raw, |ctx| actions = ui::draw(ctx, ui_state, &view, hist));
-            gfx.paint_egui(&frame.view, out);
+            gfx.paint_egui(out);
+        }
+        if !self.args.no_overlay {
+            gfx.composite(&target);
+        }
+        if offscreen && let Some(s) = &self.session {
+            gfx.blit(s.renderer.target_texture(), &frame.texture.texture);
         }
         let mut problems: Vec<String> = Vec::new();
-        let exiting = self.args.exit_after.is_some_and(|n| self.frames + 1 >= n);
         if exiting && let Some(p) = &self.args.screenshot {
             self.screenshot_to = Some(p.clone());
         }
         if let Some(to) = self.screenshot_to.take() {
-            let img = if gfx.copy_src {
-                engine::gpu::read_texture(&gfx.ctx, &frame.texture.texture)
-            } else {
-                None
+            let img = match &self.session {
+                Some(s) if offscreen => s.renderer.read_texture(s.renderer.target_texture()),
+                _ if gfx.copy_src => engine::gpu::read_texture(&gfx.ctx, &frame.texture.texture),
+                _ => None,
             };
             match img {
                 Some(img) => match img.save_png(&to) {
@@ -419,8 +450,10 @@ impl ApplicationHandler for App {
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let consumed = match &mut self.gfx {
-            Some(g) if !self.args.no_overlay => {
-                g.egui_state.on_window_event(&g.window, &event).consumed
+            Some(g) if !self.args.no_overlay && !matches!(event, WindowEvent::RedrawRequested) => {
+                let r = g.egui_state.on_window_event(&g.window, &event);
+                self.ui_dirty |= r.repaint;
+                r.consumed
             }
             _ => false,
         };

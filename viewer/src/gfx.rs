@@ -6,6 +6,8 @@ use std::sync::Arc;
 use engine::gpu::GpuContext;
 use winit::window::Window;
 
+use crate::overlay::Overlay;
+
 /// Window, surface and egui state.
 pub struct Gfx {
     pub window: Arc<Window>,
@@ -14,9 +16,14 @@ pub struct Gfx {
     pub config: wgpu::SurfaceConfiguration,
     /// The surface can be read back (screenshots include the overlay).
     pub copy_src: bool,
+    /// The surface can be copied into: frames are drawn offscreen and copied
+    /// (software presenters read slowly from their images, so the overlay's
+    /// blending there costs more than the copy).
+    pub copy_dst: bool,
     pub egui_ctx: egui::Context,
     pub egui_state: egui_winit::State,
     egui_renderer: egui_wgpu::Renderer,
+    pub overlay: Overlay,
 }
 
 impl std::fmt::Debug for Gfx {
@@ -55,9 +62,13 @@ impl Gfx {
             })
             .ok_or_else(|| anyhow::anyhow!("no 8-bit RGBA/BGRA surface format"))?;
         let copy_src = caps.usages.contains(wgpu::TextureUsages::COPY_SRC);
+        let copy_dst = caps.usages.contains(wgpu::TextureUsages::COPY_DST);
         let mut usage = wgpu::TextureUsages::RENDER_ATTACHMENT;
         if copy_src {
             usage |= wgpu::TextureUsages::COPY_SRC;
+        }
+        if copy_dst {
+            usage |= wgpu::TextureUsages::COPY_DST;
         }
         let present_mode = if vsync {
             wgpu::PresentMode::AutoVsync
@@ -90,13 +101,23 @@ impl Gfx {
             None,
             Some(max_side),
         );
-        let egui_renderer = egui_wgpu::Renderer::new(&ctx.device, format, Default::default());
+        let egui_renderer = egui_wgpu::Renderer::new(
+            &ctx.device,
+            format,
+            egui_wgpu::RendererOptions {
+                dithering: false,
+                ..Default::default()
+            },
+        );
+        let overlay = Overlay::new(&ctx.device, format, config.width, config.height);
         Ok(Self {
+            overlay,
             window,
             ctx,
             surface,
             config,
             copy_src,
+            copy_dst,
             egui_ctx,
             egui_state,
             egui_renderer,
@@ -108,6 +129,8 @@ impl Gfx {
         self.config.width = width.max(1);
         self.config.height = height.max(1);
         self.surface.configure(&self.ctx.device, &self.config);
+        self.overlay
+            .resize(&self.ctx.device, self.config.width, self.config.height);
     }
 
     /// The next surface texture, or `None` (after reconfiguring) when the
@@ -125,6 +148,32 @@ impl Gfx {
             }
             C::Timeout | C::Occluded | C::Validation => None,
         }
+    }
+
+    /// Copies a finished offscreen frame into the surface texture.
+    pub fn blit(&self, from: &wgpu::Texture, to: &wgpu::Texture) {
+        let mut enc = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("blit"),
+            });
+        enc.copy_texture_to_texture(
+            from.as_image_copy(),
+            to.as_image_copy(),
+            wgpu::Extent3d {
+                width: from.width().min(to.width()),
+                height: from.height().min(to.height()),
+                depth_or_array_layers: 1,
+            },
+        );
+        self.ctx.queue.submit([enc.finish()]);
+    }
+
+    /// Blends the cached overlay over `view`.
+    pub fn composite(&self, view: &wgpu::TextureView) {
+        self.overlay
+            .composite(&self.ctx.device, &self.ctx.queue, view);
     }
 
     /// Clears `view` (no scene open).
@@ -159,8 +208,8 @@ impl Gfx {
         self.ctx.queue.submit([enc.finish()]);
     }
 
-    /// Paints egui's output over `view`.
-    pub fn paint_egui(&mut self, view: &wgpu::TextureView, mut output: egui::FullOutput) {
+    /// Paints egui's output into the cached overlay (see [`Overlay`]).
+    pub fn paint_egui(&mut self, mut output: egui::FullOutput) {
         self.egui_state
             .handle_platform_output(&self.window, std::mem::take(&mut output.platform_output));
         let shapes = std::mem::take(&mut output.shapes);
@@ -185,11 +234,11 @@ impl Gfx {
             let pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("egui"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view,
+                    view: self.overlay.view(),
                     depth_slice: None,
                     resolve_target: None,
                     ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
+                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
                         store: wgpu::StoreOp::Store,
                     },
                 })],
@@ -206,5 +255,7 @@ impl Gfx {
             self.egui_renderer.free_texture(id);
         }
         output.textures_delta.clear();
+        let used = self.egui_ctx.globally_used_rect();
+        self.overlay.set_area(used, output.pixels_per_point);
     }
 }

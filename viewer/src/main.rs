@@ -15,6 +15,7 @@
 mod app;
 mod controls;
 mod gfx;
+mod overlay;
 mod session;
 mod ui;
 
@@ -73,6 +74,9 @@ pub struct Args {
     /// Hide the overlay.
     #[arg(long)]
     pub no_overlay: bool,
+    /// Overlay refreshes per second (it is cached in between; input refreshes it at once).
+    #[arg(long, default_value_t = 2.0)]
+    pub overlay_hz: f64,
 }
 
 fn main() -> ExitCode {

@@ -288,6 +288,11 @@ impl GpuRenderer {
         &self.target.color
     }
 
+    /// A view of the own target (to draw an overlay on before copying it out).
+    pub fn target_view(&self) -> &wgpu::TextureView {
+        &self.target.color_view
+    }
+
     /// Draws the following frames into `view` (e.g. a window surface's
     /// texture, of the configured format and size) instead of the own
     /// target; `None` goes back to the own target.
