@@ -155,6 +155,20 @@ pub fn drop_page_cache(file: &std::fs::File) -> bool {
     }
 }
 
+/// Opens a scene file as a rep source: the real file with its page cache
+/// dropped (a cold start), or behind a throttled disk model.
+pub fn open_scene_source(
+    path: &std::path::Path,
+    model: Option<DiskModel>,
+) -> io::Result<std::sync::Arc<dyn ByteSource>> {
+    let f = crate::io::FileSource::open(path)?;
+    drop_page_cache(f.file());
+    Ok(match model {
+        None => std::sync::Arc::new(f),
+        Some(m) => std::sync::Arc::new(ThrottledSource::new(f, m)),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

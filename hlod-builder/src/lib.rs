@@ -20,5 +20,6 @@ pub mod lod;
 pub mod mesh;
 pub mod scenegen;
 pub mod summary;
+pub mod vdt;
 
 pub use build::{BuildError, BuildParams, BuildStats, build_file};

@@ -35,6 +35,14 @@ enum Cmd {
     /// Generate a glTF scene.
     #[command(subcommand)]
     Gen(GenCmd),
+    /// Build the view-dependence tree of each mesh of a model and report it
+    /// (El-Sana & Chiang Table 1: input size, construction time, tree size).
+    Vdt {
+        input: PathBuf,
+        /// quadric or length.
+        #[arg(long, default_value = "quadric")]
+        metric: String,
+    },
 }
 
 #[derive(Args, Debug)]
@@ -137,6 +145,7 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
+        Cmd::Vdt { input, metric } => vdt_report(&input, &metric),
         Cmd::Gen(GenCmd::Tile {
             input,
             grid,
@@ -249,5 +258,36 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
             s.reps.len()
         );
     }
+    Ok(())
+}
+
+fn vdt_report(input: &std::path::Path, metric: &str) -> Result<()> {
+    use hlod_builder::vdt::{Metric, VdtParams, build_tree};
+    let metric = match metric {
+        "quadric" => Metric::Quadric,
+        "length" => Metric::EdgeLength,
+        m => anyhow::bail!("--metric {m:?}: use quadric or length"),
+    };
+    let t = std::time::Instant::now();
+    let imp = hlod_builder::import::load(input)?;
+    let load_s = t.elapsed().as_secs_f64();
+    println!("| mesh | input tris | input verts (welded) | nodes | roots | tree build s |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    for (i, m) in imp.meshes.iter().enumerate() {
+        let Some(m) = m else { continue };
+        let t = std::time::Instant::now();
+        let tree = build_tree(&m.positions, &m.indices, &VdtParams { metric });
+        let secs = t.elapsed().as_secs_f64();
+        tree.validate()
+            .map_err(|e| anyhow::anyhow!("mesh {i}: invalid tree: {e}"))?;
+        println!(
+            "| {i} | {} | {} | {} | {} | {secs:.2} |",
+            tree.triangles.len(),
+            tree.leaf_count(),
+            tree.nodes.len(),
+            tree.roots.len()
+        );
+    }
+    println!("(import {load_s:.2} s)");
     Ok(())
 }

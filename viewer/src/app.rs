@@ -18,7 +18,7 @@ use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
 use crate::Args;
-use crate::controls::{Controls, Held, clip_planes};
+use crate::controls::{Controls, Held};
 use crate::gfx::Gfx;
 use crate::session::{Session, Settings};
 use crate::ui::{self, Sample, UiState};
@@ -142,31 +142,15 @@ impl App {
         let Some(gfx) = &self.gfx else { return };
         self.session = None;
         let size = (gfx.config.width, gfx.config.height);
-        // Resolve a byte budget against this scene's size.
-        let data = engine::SceneFile::open(path)
-            .map(|s| {
-                s.skeleton()
-                    .reps
-                    .iter()
-                    .map(|r| u64::from(r.len))
-                    .sum::<u64>()
-            })
-            .unwrap_or(1);
-        let mut s = self.settings;
-        if let Ok(b) = engine::cli::parse_budget(&self.args.budget, data.max(1)) {
-            s.budget_fraction = (b as f64 / data.max(1) as f64).clamp(1e-6, 1.0);
-        }
-        let (mut near, mut far) = (s.params.near, s.params.far);
-        if let Ok(f) = engine::SceneFile::open(path) {
-            let r = &f.skeleton().nodes[0];
-            let diag = (glam::Vec3::from(r.bbox_max) - glam::Vec3::from(r.bbox_min)).length();
-            (near, far) = clip_planes(diag);
-        }
-        s.params.near = near;
-        s.params.far = far;
-        s.params.width_px = size.0;
-        s.params.height_px = size.1;
-        match Session::open(path, &gfx.ctx, s, size, gfx.config.format) {
+        let budget = Some(self.args.budget.as_str());
+        match Session::open(
+            path,
+            &gfx.ctx,
+            self.settings,
+            budget,
+            size,
+            gfx.config.format,
+        ) {
             Ok(sess) => {
                 let (min, max) = sess.bounds();
                 self.controls.frame_all(min, max);

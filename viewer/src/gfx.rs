@@ -191,12 +191,7 @@ impl Gfx {
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color {
-                        r: 0.09,
-                        g: 0.10,
-                        b: 0.12,
-                        a: 1.0,
-                    }),
+                    load: wgpu::LoadOp::Clear(engine::gpu::BACKGROUND),
                     store: wgpu::StoreOp::Store,
                 },
             })],

@@ -6,10 +6,10 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use engine::disk::{DiskModel, ThrottledSource};
+use engine::disk::{DiskModel, open_scene_source};
 use engine::gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
-use engine::{ByteSource, FileSource, SceneFile, Skeleton};
+use engine::{SceneFile, Skeleton};
 use glam::Vec3;
 
 /// What the user can change at run time.
@@ -43,16 +43,29 @@ impl std::fmt::Debug for Session {
 
 impl Session {
     /// Opens `path` and starts the walkthrough; `Err` is a message to show.
+    /// `budget` (bytes or a percentage, as on the command line) replaces the
+    /// settings' fraction once the scene's size is known; the clip planes and
+    /// viewport come from the scene's size and `size`.
     pub fn open(
         path: &Path,
         ctx: &GpuContext,
-        settings: Settings,
+        mut settings: Settings,
+        budget: Option<&str>,
         size: (u32, u32),
         color_format: wgpu::TextureFormat,
     ) -> Result<Self, String> {
         let scene = SceneFile::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let skeleton = Arc::new(scene.skeleton().clone());
-        let data_bytes = skeleton.reps.iter().map(|r| u64::from(r.len)).sum();
+        let data_bytes: u64 = skeleton.reps.iter().map(|r| u64::from(r.len)).sum();
+        if let Some(b) = budget {
+            let bytes =
+                engine::cli::parse_budget(b, data_bytes.max(1)).map_err(|e| e.to_string())?;
+            settings.budget_fraction = (bytes as f64 / data_bytes.max(1) as f64).clamp(1e-6, 1.0);
+        }
+        let root = &skeleton.nodes[0];
+        let diag = (Vec3::from(root.bbox_max) - Vec3::from(root.bbox_min)).length();
+        (settings.params.near, settings.params.far) = crate::controls::clip_planes(diag);
+        (settings.params.width_px, settings.params.height_px) = size;
         let (walk, renderer) = start(
             path,
             &skeleton,
@@ -154,11 +167,8 @@ fn start_walk(
     data_bytes: u64,
     s: &Settings,
 ) -> Result<Walkthrough, String> {
-    let file = FileSource::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let source: Arc<dyn ByteSource> = match (s.mode, s.disk) {
-        (Mode::Incore, _) | (_, None) => Arc::new(file),
-        (_, Some(m)) => Arc::new(ThrottledSource::new(file, m)),
-    };
+    let model = if s.mode == Mode::Incore { None } else { s.disk };
+    let source = open_scene_source(path, model).map_err(|e| format!("{}: {e}", path.display()))?;
     let params = RuntimeParams {
         mode: s.mode,
         budget_bytes: budget(data_bytes, s.budget_fraction),

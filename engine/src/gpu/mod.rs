@@ -16,7 +16,7 @@ pub mod arena;
 mod renderer;
 mod resources;
 
-pub use renderer::{Colouring, GpuRenderer, GpuStats, RendererConfig};
+pub use renderer::{BACKGROUND, Colouring, GpuRenderer, GpuStats, RendererConfig};
 pub use resources::read_texture;
 
 use std::sync::{Arc, Mutex};

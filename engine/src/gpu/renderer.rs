@@ -18,7 +18,8 @@ use crate::image::RgbaImage;
 use crate::render::Renderer;
 use crate::skeleton::RepId;
 
-const BACKGROUND: wgpu::Color = wgpu::Color {
+/// The clear colour of every frame.
+pub const BACKGROUND: wgpu::Color = wgpu::Color {
     r: 0.09,
     g: 0.10,
     b: 0.12,

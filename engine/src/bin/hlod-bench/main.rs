@@ -11,15 +11,15 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
+use engine::SceneFile;
 use engine::camera::{PathKind, Pose, format_path, generate_path, read_path};
-use engine::disk::{DiskModel, ThrottledSource, drop_page_cache};
+use engine::disk::{DiskModel, open_scene_source};
 use engine::gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use engine::image::RgbaImage;
 use engine::metrics::FrameMetrics;
 use engine::metrics::{Summary, summarize, summary_table, to_csv};
 use engine::render::{NoneRenderer, Renderer};
 use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path};
-use engine::{ByteSource, FileSource, SceneFile};
 use glam::Vec3;
 
 #[derive(Parser, Debug)]
@@ -213,7 +213,9 @@ fn run(a: Args) -> Result<()> {
         if mode == Mode::Incore && k > 0 {
             continue; // independent of the footprint
         }
-        let source = open_source(&a.scene, if mode == Mode::Incore { None } else { disk })?;
+        let model = if mode == Mode::Incore { None } else { disk };
+        let source =
+            open_scene_source(&a.scene, model).with_context(|| a.scene.display().to_string())?;
         let params = RuntimeParams {
             mode,
             budget_bytes: budget,
@@ -406,13 +408,4 @@ fn write_plots(
         plots::sweep(&out.join("sweep.png"), &pts)?;
     }
     Ok(())
-}
-
-fn open_source(path: &Path, model: Option<DiskModel>) -> Result<Arc<dyn ByteSource>> {
-    let f = FileSource::open(path).with_context(|| path.display().to_string())?;
-    drop_page_cache(f.file());
-    Ok(match model {
-        None => Arc::new(f),
-        Some(m) => Arc::new(ThrottledSource::new(f, m)),
-    })
 }
