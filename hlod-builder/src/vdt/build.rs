@@ -1,6 +1,10 @@
 //! Construction of the view-dependence forest: weld, then collapse edges in
-//! shortest-first order (a binary heap with lazy invalidation by vertex
-//! version), refusing fold-overs and link-condition violations.
+//! shortest-first order (a binary heap; entries of collapsed vertices are
+//! skipped when popped), refusing fold-overs and link-condition violations.
+//! A vertex's position and quadric never change (a collapse makes a new
+//! vertex), so an entry's cost stays right until an endpoint dies; a refused
+//! collapse waits beside its endpoints and is queued again when a collapse
+//! changes their neighbourhood.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -29,8 +33,8 @@ pub struct VdtParams {
 /// full-resolution normal (a fold-over, or a sliver standing up on edge).
 const MAX_TURN_COS: f64 = 0.25;
 
-/// `(cost, tie-break, kept vertex, removed vertex, versions)`.
-type Candidate = Reverse<(u64, u64, u32, u32, u32, u32)>;
+/// `(cost, tie-break, kept vertex, removed vertex)`.
+type Candidate = Reverse<(u64, u64, u32, u32)>;
 
 struct Builder {
     pos: Vec<DVec3>,
@@ -43,7 +47,10 @@ struct Builder {
     /// Each triangle's full-resolution normal: no collapse may turn a
     /// triangle against it (a fold-over of the surface).
     original_normal: Vec<DVec3>,
-    version: Vec<u32>,
+    /// Refused collapses `(keep, gone)` filed under both endpoints, and the
+    /// set of those filed (each is filed once and retried once per change).
+    blocked: Vec<Vec<(u32, u32)>>,
+    filed: std::collections::HashSet<(u32, u32)>,
     dead: Vec<bool>,
     nodes: Vec<VdNode>,
     adjacent: Vec<Vec<u32>>,
@@ -65,7 +72,8 @@ pub fn build_tree(positions: &[[f32; 3]], indices: &[u32], p: &VdtParams) -> VdT
         incident: vec![Vec::new(); n],
         quadric: vec![[0.0; 10]; n],
         original_normal: Vec::new(),
-        version: vec![0; n],
+        blocked: vec![Vec::new(); n],
+        filed: Default::default(),
         dead: vec![false; n],
         nodes: (0..n as u32)
             .map(|i| VdNode {
@@ -97,16 +105,15 @@ pub fn build_tree(positions: &[[f32; 3]], indices: &[u32], p: &VdtParams) -> VdT
     for v in 0..n as u32 {
         b.push_edges(v);
     }
-    while let Some(Reverse((_, _, keep, gone, vk, vg))) = b.heap.pop() {
-        if b.dead[keep as usize]
-            || b.dead[gone as usize]
-            || b.version[keep as usize] != vk
-            || b.version[gone as usize] != vg
-        {
+    while let Some(Reverse((_, _, keep, gone))) = b.heap.pop() {
+        if b.dead[keep as usize] || b.dead[gone as usize] {
             continue;
         }
         if b.valid(keep, gone) {
             b.collapse(keep, gone);
+        } else if b.filed.insert((keep, gone)) {
+            b.blocked[keep as usize].push((keep, gone));
+            b.blocked[gone as usize].push((keep, gone));
         }
     }
     b.finish(pos, tris)
@@ -247,21 +254,18 @@ impl Builder {
         }
     }
 
+    fn push(&mut self, keep: u32, gone: u32) {
+        let c = self.cost(keep, gone);
+        self.tick += 1;
+        self.heap
+            .push(Reverse((c.to_bits(), self.tick, keep, gone)));
+    }
+
     fn push_edges(&mut self, v: u32) {
         for u in self.neighbours(v) {
             // Both directions; the cheaper one is popped first.
-            for (keep, gone) in [(v, u), (u, v)] {
-                let c = self.cost(keep, gone);
-                self.tick += 1;
-                self.heap.push(Reverse((
-                    c.to_bits(),
-                    self.tick,
-                    keep,
-                    gone,
-                    self.version[keep as usize],
-                    self.version[gone as usize],
-                )));
-            }
+            self.push(v, u);
+            self.push(u, v);
         }
     }
 
@@ -348,7 +352,7 @@ impl Builder {
         self.pos.push(self.pos[keep as usize]);
         self.quadric.push(q);
         self.incident.push(merged);
-        self.version.push(0);
+        self.blocked.push(Vec::new());
         self.dead.push(false);
         for v in [keep, gone] {
             self.dead[v as usize] = true;
@@ -367,9 +371,14 @@ impl Builder {
         self.adjacent.push(removed);
         self.boundary.push(nb.clone());
         self.push_edges(p);
+        // The neighbours' surroundings changed: retry what they refused.
         for u in nb {
-            self.version[u as usize] += 1;
-            self.push_edges(u);
+            for (k, g) in std::mem::take(&mut self.blocked[u as usize]) {
+                // Filed under both endpoints: the first one retries it.
+                if self.filed.remove(&(k, g)) && !self.dead[k as usize] && !self.dead[g as usize] {
+                    self.push(k, g);
+                }
+            }
         }
     }
 
