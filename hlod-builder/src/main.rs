@@ -42,6 +42,9 @@ enum Cmd {
         /// quadric or length.
         #[arg(long, default_value = "quadric")]
         metric: String,
+        /// Disk block the meta-nodes are sized to (chooses L).
+        #[arg(long, default_value_t = 4096)]
+        block: usize,
     },
 }
 
@@ -145,7 +148,11 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
-        Cmd::Vdt { input, metric } => vdt_report(&input, &metric),
+        Cmd::Vdt {
+            input,
+            metric,
+            block,
+        } => vdt_report(&input, &metric, block),
         Cmd::Gen(GenCmd::Tile {
             input,
             grid,
@@ -261,8 +268,13 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
     Ok(())
 }
 
-fn vdt_report(input: &std::path::Path, metric: &str) -> Result<()> {
+fn vdt_report(input: &std::path::Path, metric: &str, block: usize) -> Result<()> {
+    use hlod_builder::vdt::meta;
     use hlod_builder::vdt::{Metric, VdtParams, build_tree};
+    if !(64..=1 << 24).contains(&block) {
+        anyhow::bail!("--block must be in 64..=16777216 bytes");
+    }
+    let levels = meta::levels_for_block(block);
     let metric = match metric {
         "quadric" => Metric::Quadric,
         "length" => Metric::EdgeLength,
@@ -271,8 +283,16 @@ fn vdt_report(input: &std::path::Path, metric: &str) -> Result<()> {
     let t = std::time::Instant::now();
     let imp = hlod_builder::import::load(input)?;
     let load_s = t.elapsed().as_secs_f64();
-    println!("| mesh | input tris | input verts (welded) | nodes | roots | tree build s |");
-    println!("|---|---:|---:|---:|---:|---:|");
+    let input_bytes = std::fs::metadata(input).map(|m| m.len()).unwrap_or(0);
+    println!(
+        "{}: {}, meta-nodes of L = {levels} levels for {block}-byte blocks",
+        input.display(),
+        human_bytes(input_bytes)
+    );
+    println!(
+        "| mesh | input tris | input verts (welded) | nodes | roots | VDT s | MNT s | tree | meta-nodes | DATA | MNT |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for (i, m) in imp.meshes.iter().enumerate() {
         let Some(m) = m else { continue };
         let t = std::time::Instant::now();
@@ -280,12 +300,28 @@ fn vdt_report(input: &std::path::Path, metric: &str) -> Result<()> {
         let secs = t.elapsed().as_secs_f64();
         tree.validate()
             .map_err(|e| anyhow::anyhow!("mesh {i}: invalid tree: {e}"))?;
+        let t = std::time::Instant::now();
+        let m = meta::block(&tree, levels);
+        let files = meta::encode(&tree, &m);
+        let mnt_secs = t.elapsed().as_secs_f64();
+        m.validate(&tree)
+            .map_err(|e| anyhow::anyhow!("mesh {i}: invalid meta-nodes: {e}"))?;
+        // The binary tree as a flat file: node records, leaf positions,
+        // triangles, and the adjacency lists.
+        let tree_bytes = tree.nodes.len() * meta::NODE_BYTES
+            + tree.positions.len() * 12
+            + tree.triangles.len() * 12
+            + (tree.adjacent.iter().map(Vec::len).sum::<usize>() + tree.adjacent.len()) * 4;
         println!(
-            "| {i} | {} | {} | {} | {} | {secs:.2} |",
+            "| {i} | {} | {} | {} | {} | {secs:.2} | {mnt_secs:.2} | {} | {} | {} | {} |",
             tree.triangles.len(),
             tree.leaf_count(),
             tree.nodes.len(),
-            tree.roots.len()
+            tree.roots.len(),
+            human_bytes(tree_bytes as u64),
+            m.metas.len(),
+            human_bytes(files.data.len() as u64),
+            human_bytes((files.mnt.len() * std::mem::size_of::<meta::MntRecord>()) as u64)
         );
     }
     println!("(import {load_s:.2} s)");

@@ -160,3 +160,35 @@ fn generators_validate_their_parameters() {
     );
     assert_eq!(std::fs::read_dir(d).unwrap().count(), 2);
 }
+
+#[test]
+fn vdt_report_and_its_failures() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let engine = data("2CylinderEngine/2CylinderEngine.gltf");
+    let out = hlod_build(&["vdt", &engine], d);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("L = 6 levels for 4096-byte blocks"), "{text}");
+    assert!(
+        text.lines().filter(|l| l.starts_with("| ")).count() > 10,
+        "{text}"
+    );
+    assert_clean_failure(&hlod_build(&["vdt", "missing.glb"], d), "missing.glb", d, 0);
+    assert_clean_failure(
+        &hlod_build(&["vdt", &engine, "--metric", "area"], d),
+        "--metric",
+        d,
+        0,
+    );
+    assert_clean_failure(
+        &hlod_build(&["vdt", &engine, "--block", "8"], d),
+        "--block",
+        d,
+        0,
+    );
+}

@@ -23,6 +23,7 @@
 //!   allowed (no link condition is asked of them).
 
 mod build;
+pub mod meta;
 #[cfg(test)]
 mod tests;
 

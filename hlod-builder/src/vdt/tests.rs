@@ -141,3 +141,50 @@ fn separate_parts_make_a_forest_and_construction_is_deterministic() {
         "two parts cannot merge along real edges"
     );
 }
+
+#[test]
+fn meta_nodes_block_the_tree_and_round_trip() {
+    use super::meta::{block, decode, encode, levels_for_block};
+    let (p, idx) = grid(16);
+    let t = build_tree(&p, &idx, &VdtParams::default());
+    let l4k = levels_for_block(4096);
+    assert!((4..=8).contains(&l4k), "L for 4 KiB blocks: {l4k}");
+    for levels in [1, 3, l4k] {
+        let m = block(&t, levels);
+        m.validate(&t).unwrap();
+        assert_eq!(m.roots.len(), t.roots.len());
+        let files = encode(&t, &m);
+        assert_eq!(files.mnt.len(), m.metas.len());
+        for (i, rec) in files.mnt.iter().enumerate() {
+            let bytes =
+                &files.data[rec.offset as usize..(rec.offset + u64::from(rec.len)) as usize];
+            let d = decode(bytes, rec).unwrap();
+            let mm = &m.metas[i];
+            assert_eq!(d.nodes.iter().map(|r| r.id).collect::<Vec<_>>(), mm.nodes);
+            for r in &d.nodes {
+                let nd = t.nodes[r.id as usize];
+                assert_eq!(
+                    (r.parent, r.left, r.right, r.leaf),
+                    (nd.parent, nd.left, nd.right, nd.leaf)
+                );
+                assert_eq!(r.switch, nd.switch);
+            }
+            let tris: Vec<[u32; 3]> = mm
+                .triangles
+                .iter()
+                .map(|&x| t.triangles[x as usize])
+                .collect();
+            assert_eq!(d.triangles, tris);
+            for (id, xyz) in &d.leaves {
+                assert_eq!(*xyz, t.positions[*id as usize]);
+            }
+            // A flipped byte or a cut payload is refused.
+            let mut bad = bytes.to_vec();
+            bad[bytes.len() / 2] ^= 0x40;
+            assert!(decode(&bad, rec).is_err());
+            assert!(decode(&bytes[..bytes.len() - 4], rec).is_err());
+        }
+    }
+    // Deeper blocks mean fewer, larger meta-nodes.
+    assert!(block(&t, 5).metas.len() < block(&t, 2).metas.len());
+}
