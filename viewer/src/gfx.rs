@@ -40,6 +40,31 @@ pub struct Frame {
     pub view: wgpu::TextureView,
 }
 
+/// A colour-only render pass over `view` (no depth), storing its result.
+pub fn color_pass<'e>(
+    enc: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    view: &wgpu::TextureView,
+    load: wgpu::LoadOp<wgpu::Color>,
+) -> wgpu::RenderPass<'e> {
+    enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load,
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}
+
 impl Gfx {
     /// Creates the surface for `window` and an adapter that can present to it.
     pub fn new(window: Arc<Window>, vsync: bool) -> anyhow::Result<Self> {
@@ -184,22 +209,12 @@ impl Gfx {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("clear"),
             });
-        enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("clear"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(engine::gpu::BACKGROUND),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        color_pass(
+            &mut enc,
+            "clear",
+            view,
+            wgpu::LoadOp::Clear(engine::gpu::BACKGROUND),
+        );
         self.ctx.queue.submit([enc.finish()]);
     }
 
@@ -226,22 +241,12 @@ impl Gfx {
             .egui_renderer
             .update_buffers(device, queue, &mut enc, &prims, &sd);
         {
-            let pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("egui"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: self.overlay.view(),
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let pass = color_pass(
+                &mut enc,
+                "egui",
+                self.overlay.view(),
+                wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+            );
             let mut pass = pass.forget_lifetime();
             self.egui_renderer.render(&mut pass, &prims, &sd);
         }

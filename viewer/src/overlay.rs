@@ -15,6 +15,8 @@ pub struct Overlay {
     pub rect: [u32; 4],
 }
 
+use crate::gfx::color_pass;
+
 const WGSL: &str = include_str!("../../shaders/overlay.wgsl");
 
 impl Overlay {
@@ -117,22 +119,7 @@ impl Overlay {
             label: Some("overlay composite"),
         });
         {
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("overlay composite"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: frame,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Load,
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            let mut pass = color_pass(&mut enc, "overlay composite", frame, wgpu::LoadOp::Load);
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, &self.bind_group, &[]);
             pass.set_scissor_rect(x, y, w, h);

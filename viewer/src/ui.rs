@@ -61,6 +61,17 @@ fn series(h: &VecDeque<Sample>, f: impl Fn(&Sample) -> f64) -> PlotPoints<'stati
     )
 }
 
+/// A small fixed plot of the last frames.
+fn live_plot(id: &str) -> Plot<'_> {
+    Plot::new(id)
+        .height(90.0)
+        .legend(egui_plot::Legend::default())
+        .include_y(0.0)
+        .allow_drag(false)
+        .allow_zoom(false)
+        .allow_scroll(false)
+}
+
 /// Draws the overlay.
 pub fn draw(
     ctx: &egui::Context,
@@ -125,25 +136,11 @@ pub fn draw(
                     m.missing_reps, m.prefetch_queue
                 ));
             }
-            Plot::new("times")
-                .height(90.0)
-                .legend(egui_plot::Legend::default())
-                .include_y(0.0)
-                .allow_drag(false)
-                .allow_zoom(false)
-                .allow_scroll(false)
-                .show(ui, |p| {
+            live_plot("times").show(ui, |p| {
                     p.line(Line::new("loop ms", series(hist, |s| s.loop_ms)));
                     p.line(Line::new("runtime ms", series(hist, |s| s.m.frame_ms)));
                 });
-            Plot::new("bytes")
-                .height(90.0)
-                .legend(egui_plot::Legend::default())
-                .include_y(0.0)
-                .allow_drag(false)
-                .allow_zoom(false)
-                .allow_scroll(false)
-                .show(ui, |p| {
+            live_plot("bytes").show(ui, |p| {
                     p.line(Line::new("resident MiB", series(hist, |s| s.m.max_resident_bytes as f64 / MIB)));
                     p.line(Line::new("Stage II MiB", series(hist, |s| s.m.stage2_bytes as f64 / MIB)));
                     p.line(Line::new("prefetch MiB", series(hist, |s| s.m.prefetch_bytes as f64 / MIB)));

@@ -185,18 +185,12 @@ impl MetaTree {
     }
 }
 
-/// A node as stored in a meta-node payload.
+/// A node as stored in a meta-node payload: its id and the node itself.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct VdNodeRecord {
     pub id: u32,
-    pub parent: u32,
-    pub left: u32,
-    pub right: u32,
-    pub switch: f32,
-    pub max_adjacent: u32,
-    pub min_boundary_parent: u32,
-    pub leaf: u32,
+    pub node: VdNode,
 }
 const _: () = assert!(std::mem::size_of::<VdNodeRecord>() == 32);
 
@@ -240,16 +234,9 @@ pub fn encode(tree: &VdTree, meta: &MetaTree) -> MetaFiles {
             data.extend_from_slice(&w.to_le_bytes());
         }
         for &v in &m.nodes {
-            let nd = tree.nodes[v as usize];
             let r = VdNodeRecord {
                 id: v,
-                parent: nd.parent,
-                left: nd.left,
-                right: nd.right,
-                switch: nd.switch,
-                max_adjacent: nd.max_adjacent,
-                min_boundary_parent: nd.min_boundary_parent,
-                leaf: nd.leaf,
+                node: tree.nodes[v as usize],
             };
             data.extend_from_slice(bytemuck::bytes_of(&r));
         }

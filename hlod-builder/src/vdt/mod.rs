@@ -33,7 +33,8 @@ pub use build::{Metric, VdtParams, build_tree};
 pub const NONE: u32 = u32::MAX;
 
 /// One node of the vertex hierarchy. Nodes `0..leaf_count` are the leaves.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct VdNode {
     pub parent: u32,
     /// Children (`NONE` for leaves); the left child's position is the node's.
@@ -49,6 +50,7 @@ pub struct VdNode {
     /// The leaf whose position this node uses.
     pub leaf: u32,
 }
+const _: () = assert!(std::mem::size_of::<VdNode>() == 28);
 
 /// A forest of view-dependence trees over one mesh.
 #[derive(Clone, Debug, PartialEq)]

@@ -162,12 +162,7 @@ fn meta_nodes_block_the_tree_and_round_trip() {
             let mm = &m.metas[i];
             assert_eq!(d.nodes.iter().map(|r| r.id).collect::<Vec<_>>(), mm.nodes);
             for r in &d.nodes {
-                let nd = t.nodes[r.id as usize];
-                assert_eq!(
-                    (r.parent, r.left, r.right, r.leaf),
-                    (nd.parent, nd.left, nd.right, nd.leaf)
-                );
-                assert_eq!(r.switch, nd.switch);
+                assert_eq!(r.node, t.nodes[r.id as usize]);
             }
             let tris: Vec<[u32; 3]> = mm
                 .triangles
