@@ -264,6 +264,9 @@ pub enum PathKind {
     Approach,
     /// Orbit around the centre.
     Orbit,
+    /// Approach an object from afar, then orbit it while closing in (the
+    /// view-dependence-tree benchmark's path).
+    ApproachOrbit,
 }
 
 /// Generates a path of `frames` poses over the box `min..max` (deterministic).
@@ -291,6 +294,24 @@ pub fn generate_path(kind: PathKind, min: Vec3, max: Vec3, frames: usize) -> Vec
             })
             .collect(),
         PathKind::Flythrough => flythrough(min, e, n, fov),
+        PathKind::ApproachOrbit => (0..n)
+            .map(|i| {
+                let t = i as f32 / (n - 1) as f32;
+                let dir0 = Vec3::new(0.0, 0.25, 1.0).normalize();
+                let (a, d, y) = if t < 0.3 {
+                    // Ease in from 4 radii to 1.6.
+                    let u = t / 0.3;
+                    (0.0, 4.0 - 2.4 * u * (2.0 - u), dir0.y)
+                } else {
+                    // One turn, closing in to 0.9 radii, the height swinging.
+                    let u = (t - 0.3) / 0.7;
+                    let a = std::f32::consts::TAU * u;
+                    (a, 1.6 - 0.7 * u, dir0.y + 0.35 * (2.0 * a).sin())
+                };
+                let dir = Vec3::new(a.sin(), y, a.cos()).normalize();
+                Pose::look_at(c + dir * radius * d, c, fov)
+            })
+            .collect(),
     }
 }
 

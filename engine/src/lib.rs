@@ -28,6 +28,10 @@
 //!   under a hard byte budget, in `incore`, `nopre` and `pre` modes.
 //! - [`metrics`] (per-frame CSV, summaries), [`render`] (the renderer trait and
 //!   the `none` renderer) and [`cli`] (shared plumbing of the binaries).
+//! - [`vdt`]: view-dependence trees (El-Sana & Chiang) for large objects —
+//!   the tree, meta-node blocking and file, per-frame refinement, the
+//!   place-holder buffer manager with its I/O thread, and the
+//!   virtual-memory baseline.
 //!
 //! Nothing here depends on a GPU API: the wgpu renderer, when it lands, is the
 //! only module that touches wgpu, behind [`render::Renderer`].
@@ -46,6 +50,7 @@ pub mod prefetch;
 pub mod render;
 pub mod runtime;
 pub mod skeleton;
+pub mod vdt;
 
 #[cfg(test)]
 mod testutil;

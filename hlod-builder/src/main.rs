@@ -45,6 +45,10 @@ enum Cmd {
         /// Disk block the meta-nodes are sized to (chooses L).
         #[arg(long, default_value_t = 4096)]
         block: usize,
+        /// Write the largest mesh's tree as a `.vdt` file (meta-node trees
+        /// and the flat layout), atomically.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
     },
 }
 
@@ -152,7 +156,8 @@ fn run(cli: Cli) -> Result<()> {
             input,
             metric,
             block,
-        } => vdt_report(&input, &metric, block),
+            output,
+        } => vdt_report(&input, &metric, block, output.as_deref()),
         Cmd::Gen(GenCmd::Tile {
             input,
             grid,
@@ -268,7 +273,30 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
     Ok(())
 }
 
-fn vdt_report(input: &std::path::Path, metric: &str, block: usize) -> Result<()> {
+/// Writes `bytes` to `out` through a temporary file in the same folder.
+fn write_vdt(out: &std::path::Path, bytes: &[u8]) -> Result<()> {
+    use std::io::Write;
+    let dir = out
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".hlod-vdt-")
+        .tempfile_in(dir)
+        .with_context(|| format!("cannot write in {}", dir.display()))?;
+    tmp.write_all(bytes)?;
+    tmp.as_file().sync_all()?;
+    tmp.persist(out)
+        .map_err(|e| anyhow::anyhow!("{}: {}", out.display(), e.error))?;
+    Ok(())
+}
+
+fn vdt_report(
+    input: &std::path::Path,
+    metric: &str,
+    block: usize,
+    output: Option<&std::path::Path>,
+) -> Result<()> {
     use hlod_builder::vdt::meta;
     use hlod_builder::vdt::{Metric, VdtParams, build_tree};
     if !(64..=1 << 24).contains(&block) {
@@ -293,6 +321,13 @@ fn vdt_report(input: &std::path::Path, metric: &str, block: usize) -> Result<()>
         "| mesh | input tris | input verts (welded) | nodes | roots | VDT s | MNT s | tree | meta-nodes | DATA | MNT |"
     );
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let largest = imp
+        .meshes
+        .iter()
+        .enumerate()
+        .filter_map(|(i, m)| m.as_ref().map(|m| (m.indices.len(), i)))
+        .max()
+        .map(|x| x.1);
     for (i, m) in imp.meshes.iter().enumerate() {
         let Some(m) = m else { continue };
         let t = std::time::Instant::now();
@@ -323,6 +358,13 @@ fn vdt_report(input: &std::path::Path, metric: &str, block: usize) -> Result<()>
             human_bytes(files.data.len() as u64),
             human_bytes((files.mnt.len() * std::mem::size_of::<meta::MntRecord>()) as u64)
         );
+        if let (Some(out), true) = (output, Some(i) == largest) {
+            write_vdt(out, &engine::vdt::file::encode(&tree, levels))?;
+            println!("wrote {} (mesh {i})", out.display());
+        }
+    }
+    if output.is_some() && largest.is_none() {
+        anyhow::bail!("{}: no mesh to write", input.display());
     }
     println!("(import {load_s:.2} s)");
     Ok(())

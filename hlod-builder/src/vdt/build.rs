@@ -16,7 +16,7 @@ use super::{NONE, VdNode, VdTree};
 /// What "shortest" means.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Metric {
-    /// Garland–Heckbert quadric error (its square root, a distance).
+    /// Garland–Heckbert quadric error, area-weighted, as an RMS distance.
     #[default]
     Quadric,
     /// Euclidean edge length.
@@ -84,6 +84,8 @@ pub fn build_tree(positions: &[[f32; 3]], indices: &[u32], p: &VdtParams) -> VdT
                 max_adjacent: 0,
                 min_boundary_parent: NONE,
                 leaf: i,
+                leaf_end: i + 1,
+                radius: 0.0,
             })
             .collect(),
         adjacent: Vec::new(),
@@ -249,7 +251,11 @@ impl Builder {
             Metric::Quadric => {
                 let mut q = self.quadric[keep as usize];
                 add(&mut q, &self.quadric[gone as usize]);
-                eval(&q, pk).max(0.0).sqrt()
+                // Area-weighted planes: divide by the total weight (the
+                // trace of the normal part) for an RMS distance, so the
+                // switch value is an object-space length at any scale.
+                let w = (q[0] + q[4] + q[7]).max(1e-300);
+                (eval(&q, pk).max(0.0) / w).sqrt()
             }
         }
     }
@@ -367,6 +373,8 @@ impl Builder {
             max_adjacent: nb.iter().copied().max().unwrap_or(NONE),
             min_boundary_parent: NONE,
             leaf: self.nodes[keep as usize].leaf,
+            leaf_end: 0,
+            radius: 0.0,
         });
         self.adjacent.push(removed);
         self.boundary.push(nb.clone());
@@ -396,9 +404,10 @@ impl Builder {
         let permanent = (0..tris.len() as u32)
             .filter(|&t| self.alive[t as usize])
             .collect();
-        let roots = (0..nodes.len() as u32)
+        let mut roots: Vec<u32> = (0..nodes.len() as u32)
             .filter(|&i| nodes[i as usize].parent == NONE)
             .collect();
+        let (pos, tris) = number_leaves_depth_first(&mut nodes, &mut roots, pos, tris);
         VdTree {
             positions: pos,
             triangles: tris,
@@ -408,4 +417,72 @@ impl Builder {
             roots,
         }
     }
+}
+
+/// Renumbers the leaves `0..n` in depth-first order (left child first, roots
+/// ascending) so that every subtree's leaves are one interval, then sets each
+/// node's interval and bounding radius (bottom-up: ids increase upward).
+/// Internal ids, and so the implicit dependencies, are unchanged.
+fn number_leaves_depth_first(
+    nodes: &mut [VdNode],
+    roots: &mut [u32],
+    pos: Vec<[f32; 3]>,
+    tris: Vec<[u32; 3]>,
+) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let n = pos.len();
+    let mut rank = vec![NONE; n];
+    let mut next = 0u32;
+    let mut stack = Vec::new();
+    for &r in roots.iter() {
+        stack.push(r);
+        while let Some(v) = stack.pop() {
+            let nd = nodes[v as usize];
+            if nd.left == NONE {
+                rank[v as usize] = next;
+                next += 1;
+            } else {
+                stack.push(nd.right);
+                stack.push(nd.left);
+            }
+        }
+    }
+    let map = |v: u32| if (v as usize) < n { rank[v as usize] } else { v };
+    // Leaf roots were visited first, in id order: their new ids keep it.
+    for r in roots.iter_mut() {
+        *r = map(*r);
+    }
+    let mut leaves = vec![nodes[0]; n];
+    for (i, nd) in nodes[..n].iter().enumerate() {
+        leaves[rank[i] as usize] = *nd;
+    }
+    nodes[..n].copy_from_slice(&leaves);
+    for (i, nd) in nodes.iter_mut().enumerate() {
+        if i < n {
+            nd.leaf = i as u32;
+            nd.leaf_end = i as u32 + 1;
+        } else {
+            nd.left = map(nd.left);
+            nd.right = map(nd.right);
+        }
+        if nd.max_adjacent != NONE {
+            nd.max_adjacent = map(nd.max_adjacent);
+        }
+    }
+    let mut new_pos = vec![[0.0; 3]; n];
+    for (i, p) in pos.into_iter().enumerate() {
+        new_pos[rank[i] as usize] = p;
+    }
+    let at = |leaf: u32| DVec3::from(new_pos[leaf as usize].map(f64::from));
+    for i in n..nodes.len() {
+        let (l, r) = (nodes[nodes[i].left as usize], nodes[nodes[i].right as usize]);
+        let p = at(l.leaf);
+        let radius = (f64::from(l.radius)).max(p.distance(at(r.leaf)) + f64::from(r.radius));
+        let nd = &mut nodes[i];
+        nd.leaf = l.leaf;
+        nd.leaf_end = r.leaf_end;
+        // Rounded up so the f32 radius still holds the children.
+        nd.radius = (radius * (1.0 + 1e-6)) as f32;
+    }
+    let tris = tris.into_iter().map(|t| t.map(map)).collect();
+    (new_pos, tris)
 }

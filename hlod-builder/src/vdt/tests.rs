@@ -20,9 +20,15 @@ fn grid(n: u32) -> (Vec<[f32; 3]>, Vec<u32>) {
     (p, idx)
 }
 
-fn sorted_tris(t: impl IntoIterator<Item = [u32; 3]>) -> Vec<[u32; 3]> {
-    let mut v: Vec<[u32; 3]> = t
+/// Triangles as position triples (bit patterns), canonically rotated and
+/// sorted: leaf ids are renumbered depth-first, positions are not.
+fn sorted_tris(
+    t: impl IntoIterator<Item = [u32; 3]>,
+    pos: &[[f32; 3]],
+) -> Vec<[[u32; 3]; 3]> {
+    let mut v: Vec<[[u32; 3]; 3]> = t
         .into_iter()
+        .map(|c| c.map(|i| pos[i as usize].map(f32::to_bits)))
         .map(|mut c| {
             // Canonical rotation keeps the winding.
             let k = (0..3).min_by_key(|&i| c[i]).unwrap();
@@ -45,10 +51,10 @@ fn grid_builds_a_valid_tree_and_full_refinement_is_the_input() {
         // ids increase toward the roots; each new id is one more than the last.
         assert!(t.nodes.len() > p.len());
         let leaves: Vec<bool> = (0..t.nodes.len()).map(|i| i < t.leaf_count()).collect();
-        let full = sorted_tris(t.cut_triangles(&leaves));
+        let full = sorted_tris(t.cut_triangles(&leaves), &t.positions);
         assert_eq!(
             full,
-            sorted_tris(idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]))
+            sorted_tris(idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]), &p)
         );
         let mut roots = vec![false; t.nodes.len()];
         for &r in &t.roots {
@@ -164,10 +170,10 @@ fn meta_nodes_block_the_tree_and_round_trip() {
             for r in &d.nodes {
                 assert_eq!(r.node, t.nodes[r.id as usize]);
             }
-            let tris: Vec<[u32; 3]> = mm
+            let tris: Vec<(u32, [u32; 3])> = mm
                 .triangles
                 .iter()
-                .map(|&x| t.triangles[x as usize])
+                .map(|&x| (x, t.triangles[x as usize]))
                 .collect();
             assert_eq!(d.triangles, tris);
             for (id, xyz) in &d.leaves {

@@ -1,6 +1,6 @@
 //! Meta-node trees (El-Sana & Chiang §3.2): every `L` levels of a binary
-//! view-dependence tree, top-down from each root, form one meta-node sized
-//! to a disk block. A meta-node holds its nodes, the *local triangle list*
+//! view-dependence tree (up to `2^L - 1` nodes, breadth-first), top-down
+//! from each root, form one meta-node sized to a disk block. A meta-node holds its nodes, the *local triangle list*
 //! (the triangles its nodes' splits add back, each stored once) and the
 //! coordinates of only those leaves its nodes need: a node uses its left
 //! child's position, so inside a meta-node only the bottom-boundary nodes'
@@ -42,20 +42,28 @@ pub struct MetaTree {
 /// Bytes a node takes in a meta-node payload.
 pub const NODE_BYTES: usize = std::mem::size_of::<VdNodeRecord>();
 
-/// `L` such that a complete `L`-level meta-node (2^L - 1 nodes, about as
-/// many triangles, half as many positions) fits in `block_bytes`.
+/// `L` such that an `L`-level meta-node (up to 2^L - 1 nodes, each with
+/// about two adjacent triangles and, for half of them, a position) fits in
+/// `block_bytes`.
 pub fn levels_for_block(block_bytes: usize) -> u32 {
-    let per_node = NODE_BYTES + 12 + 8; // node, ~one triangle, half a position
+    let per_node = NODE_BYTES + 2 * 16 + 8;
     let mut l = 1;
-    while l < 20 && ((1usize << (l + 1)) - 1) * per_node + 32 <= block_bytes {
+    while l < 20 && ((1usize << (l + 1)) - 1) * per_node + 16 <= block_bytes {
         l += 1;
     }
     l
 }
 
 /// Blocks `tree` into meta-nodes of `levels` levels (at least 1).
+///
+/// A meta-node holds up to `2^L - 1` nodes: for a complete binary tree
+/// exactly `L` levels. Collapse trees are far from complete (long chains),
+/// so the nodes are taken breadth-first from the meta-node's top until the
+/// capacity is reached, siblings always together: the children of a node
+/// are both inside or both the tops of child meta-nodes.
 pub fn block(tree: &VdTree, levels: u32) -> MetaTree {
-    let levels = levels.max(1);
+    let levels = levels.clamp(1, 20);
+    let cap = (1usize << levels) - 1;
     let n = tree.leaf_count();
     let mut node_meta = vec![NONE; tree.nodes.len()];
     let mut metas: Vec<MetaNode> = Vec::new();
@@ -71,23 +79,22 @@ pub fn block(tree: &VdTree, levels: u32) -> MetaTree {
             metas[parent as usize].children.push(id);
         }
         let mut nodes = Vec::new();
-        let mut level = vec![top];
         let mut below = Vec::new();
-        for depth in 0..levels {
-            let mut next = Vec::new();
-            for &v in &level {
-                nodes.push(v);
-                node_meta[v as usize] = id;
-                let nd: &VdNode = &tree.nodes[v as usize];
-                if nd.left != NONE {
-                    if depth + 1 < levels {
-                        next.extend([nd.left, nd.right]);
-                    } else {
-                        below.extend([nd.left, nd.right]);
-                    }
+        let mut inside = std::collections::VecDeque::from([top]);
+        // Nodes taken or promised (queued inside).
+        let mut taken = 1;
+        while let Some(v) = inside.pop_front() {
+            nodes.push(v);
+            node_meta[v as usize] = id;
+            let nd: &VdNode = &tree.nodes[v as usize];
+            if nd.left != NONE {
+                if taken + 2 <= cap {
+                    inside.extend([nd.left, nd.right]);
+                    taken += 2;
+                } else {
+                    below.extend([nd.left, nd.right]);
                 }
             }
-            level = next;
         }
         let triangles = nodes
             .iter()
@@ -124,7 +131,8 @@ pub fn block(tree: &VdTree, levels: u32) -> MetaTree {
 
 impl MetaTree {
     /// Checks the blocking against `tree`: every node in exactly one
-    /// meta-node, at most `2^L - 1` per meta-node, parent links of nodes
+    /// meta-node, at most `2^L - 1` per meta-node, siblings together or both
+    /// tops of child meta-nodes, parent links of nodes
     /// within or to the parent meta-node, children contiguous and
     /// breadth-first, every triangle in exactly one local list (or
     /// permanent), every node's position stored in its own meta-node.
@@ -148,7 +156,14 @@ impl MetaTree {
                 if self.node_meta[v as usize] != i {
                     return Err(format!("node {v}: meta index disagrees"));
                 }
-                let p = tree.nodes[v as usize].parent;
+                let nd = &tree.nodes[v as usize];
+                if nd.left != NONE
+                    && (self.node_meta[nd.left as usize] == i)
+                        != (self.node_meta[nd.right as usize] == i)
+                {
+                    return Err(format!("node {v}: children split across meta-nodes"));
+                }
+                let p = nd.parent;
                 let pm = if p == NONE {
                     NONE
                 } else {
@@ -185,14 +200,17 @@ impl MetaTree {
     }
 }
 
-/// A node as stored in a meta-node payload: its id and the node itself.
+/// A node as stored in a meta-node payload: its id, the node itself, and
+/// how many of the meta-node's local triangles are its adjacent ones (the
+/// local list is the nodes' lists in node order).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct VdNodeRecord {
     pub id: u32,
     pub node: VdNode,
+    pub adjacent: u32,
 }
-const _: () = assert!(std::mem::size_of::<VdNodeRecord>() == 32);
+const _: () = assert!(std::mem::size_of::<VdNodeRecord>() == 44);
 
 /// An MNT record: where a meta-node's payload is and its tree links.
 #[repr(C)]
@@ -219,7 +237,7 @@ pub struct MetaFiles {
 }
 
 /// Serialises every meta-node: header (magic, counts), node records, local
-/// triangles (leaf-id triples), leaf positions (id + xyz).
+/// triangles (triangle id + leaf-id triple), leaf positions (id + xyz).
 pub fn encode(tree: &VdTree, meta: &MetaTree) -> MetaFiles {
     let mut data = Vec::new();
     let mut mnt = Vec::with_capacity(meta.metas.len());
@@ -237,10 +255,16 @@ pub fn encode(tree: &VdTree, meta: &MetaTree) -> MetaFiles {
             let r = VdNodeRecord {
                 id: v,
                 node: tree.nodes[v as usize],
+                adjacent: if (v as usize) < tree.leaf_count() {
+                    0
+                } else {
+                    tree.adjacent[v as usize - tree.leaf_count()].len() as u32
+                },
             };
             data.extend_from_slice(bytemuck::bytes_of(&r));
         }
         for &t in &m.triangles {
+            data.extend_from_slice(&t.to_le_bytes());
             for c in tree.triangles[t as usize] {
                 data.extend_from_slice(&c.to_le_bytes());
             }
@@ -269,7 +293,8 @@ pub fn encode(tree: &VdTree, meta: &MetaTree) -> MetaFiles {
 #[derive(Clone, Debug, PartialEq)]
 pub struct DecodedMeta {
     pub nodes: Vec<VdNodeRecord>,
-    pub triangles: Vec<[u32; 3]>,
+    /// `(triangle id, leaf corners)`.
+    pub triangles: Vec<(u32, [u32; 3])>,
     pub leaves: Vec<(u32, [f32; 3])>,
 }
 
@@ -297,7 +322,7 @@ pub fn decode(bytes: &[u8], rec: &MntRecord) -> Result<DecodedMeta, String> {
     let (nn, nt, nl) = (word(1)? as usize, word(2)? as usize, word(3)? as usize);
     let need = 16usize
         .checked_add(nn.checked_mul(NODE_BYTES).ok_or("overflow")?)
-        .and_then(|x| x.checked_add(nt.checked_mul(12)?))
+        .and_then(|x| x.checked_add(nt.checked_mul(16)?))
         .and_then(|x| x.checked_add(nl.checked_mul(16)?))
         .ok_or("overflow")?;
     if need != bytes.len() || nn != rec.node_count as usize {
@@ -325,7 +350,7 @@ pub fn decode(bytes: &[u8], rec: &MntRecord) -> Result<DecodedMeta, String> {
         w += 1;
         v
     };
-    let triangles = (0..nt).map(|_| [next(), next(), next()]).collect();
+    let triangles = (0..nt).map(|_| (next(), [next(), next(), next()])).collect();
     let leaves = (0..nl)
         .map(|_| {
             let id = next();

@@ -1,0 +1,270 @@
+//! `vdt-bench`: El-Sana & Chiang's Table 2 for one `.vdt` file. Replays a
+//! camera path (approach and orbit by default) refining the tree once per
+//! frame, in three stores: in core (the reference: Adapt, Tris), the
+//! virtual-memory baseline (*Virt.*: 4 KiB pages, LRU, synchronous faults)
+//! and the external-memory meta-node buffers (*Ext.*: place holders, I/O
+//! thread, misses), both through the same disk model and footprint, at
+//! each footprint. Time per frame is the navigating thread's work: the
+//! refinement pass plus gathering the triangle list for the renderer; frames
+//! are paced at `--fps` (the I/O thread reads meanwhile). Writes
+//! `frames.csv`, `table2.md` and, with `--psnr-every`, PSNR of the refined
+//! mesh against the full-resolution one (CPU rasteriser).
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use engine::camera::{PathKind, View, format_path, generate_path, read_path};
+use engine::disk::{DiskModel, open_scene_source};
+use engine::vdt::ext::ExtStore;
+use engine::vdt::file::VdtFile;
+use engine::vdt::raster::rasterise;
+use engine::vdt::refine::{Criterion, NodeStore, Refiner};
+use engine::vdt::virt::VirtStore;
+use glam::Vec3;
+
+#[derive(Parser, Debug)]
+#[command(name = "vdt-bench", version, about = "View-dependence trees: Virt. vs Ext. on a camera path")]
+struct Args {
+    /// A `.vdt` file (`hlod-build vdt MODEL -o FILE`).
+    file: PathBuf,
+    /// Camera path file (default: a generated approach and orbit).
+    #[arg(long)]
+    path: Option<PathBuf>,
+    #[arg(long, default_value_t = 600)]
+    frames: usize,
+    /// Footprints: bytes (KiB/MiB suffixes) or percentages of the tree's
+    /// size (the flat layout the baseline pages), comma-separated.
+    #[arg(long, default_value = "25%,50%,150%")]
+    budgets: String,
+    /// Error tolerance in pixels.
+    #[arg(long, default_value_t = 1.0)]
+    tolerance: f32,
+    /// hdd, ssd, nvme or LATENCY_MS:MB_PER_S.
+    #[arg(long, default_value = "hdd")]
+    disk: String,
+    #[arg(long, default_value_t = 30.0)]
+    fps: f32,
+    #[arg(long, default_value_t = 1280)]
+    width: u32,
+    #[arg(long, default_value_t = 720)]
+    height: u32,
+    /// Compare every N-th Ext. frame with the full-resolution mesh (0: off).
+    #[arg(long, default_value_t = 60)]
+    psnr_every: usize,
+    /// Output folder.
+    #[arg(long, default_value = "vdt-bench-out")]
+    out: PathBuf,
+}
+
+#[derive(Clone, Copy, Default)]
+struct Frame {
+    ms: f64,
+    adapt: u32,
+    misses: u32,
+    tris: usize,
+    resident: u64,
+    loaded: u64,
+}
+
+fn main() -> ExitCode {
+    engine::cli::main_with(|| run(Args::parse()))
+}
+
+fn run(a: Args) -> Result<()> {
+    if !(a.tolerance > 0.0 && a.fps >= 0.0 && a.width > 0 && a.height > 0 && a.frames > 0) {
+        bail!("--tolerance, --frames and the viewport must be positive");
+    }
+    let disk = DiskModel::parse(&a.disk).map_err(anyhow::Error::msg)?;
+    let plain = open_scene_source(&a.file, None).with_context(|| format!("{}", a.file.display()))?;
+    let file = Arc::new(VdtFile::open(plain).with_context(|| format!("{}", a.file.display()))?);
+    let h = file.header;
+    let tree_bytes = file.source.len() - h.virt_offset;
+    let (lo, hi) = (Vec3::from(h.bounds_min), Vec3::from(h.bounds_max));
+    let poses = match &a.path {
+        Some(p) => read_path(p)?,
+        None => generate_path(PathKind::ApproachOrbit, lo, hi, a.frames),
+    };
+    std::fs::create_dir_all(&a.out)?;
+    std::fs::write(a.out.join("path.txt"), format_path(&poses))?;
+    let diag = (hi - lo).length().max(1e-6);
+    let views: Vec<View> = poses
+        .iter()
+        .map(|&pose| View { pose, width_px: a.width, height_px: a.height, near: diag * 1e-4, far: diag * 100.0 })
+        .collect();
+    let budgets = a
+        .budgets
+        .split(',')
+        .map(|b| parse_footprint(b, tree_bytes))
+        .collect::<Result<Vec<u64>>>()?;
+    println!(
+        "{}: {} leaves, {} nodes, {} meta-nodes (L = {}, largest {} B), DATA {:.2} MiB, tree {:.2} MiB; {} frames, ε {} px, disk {}",
+        a.file.display(),
+        h.leaf_count,
+        h.node_count,
+        h.meta_count,
+        h.levels,
+        h.max_meta_bytes,
+        h.data_len as f64 / 1048576.0,
+        tree_bytes as f64 / 1048576.0,
+        views.len(),
+        a.tolerance,
+        a.disk
+    );
+    let period = if a.fps > 0.0 { Duration::from_secs_f32(1.0 / a.fps) } else { Duration::ZERO };
+    let mut csv = String::from("store,budget,frame,ms,adapt,misses,tris,resident,loaded\n");
+    // The in-core reference: the whole tree read up front, never waiting.
+    let mut whole = file.load_tree()?;
+    let full: Vec<[Vec3; 3]> = whole
+        .triangles
+        .iter()
+        .map(|t| t.map(|l| Vec3::from(whole.positions[l as usize])))
+        .collect();
+    let reference = walk(&mut whole, &views, a.tolerance, Duration::ZERO, |_| 0, |_| Ok(()))?;
+    log(&mut csv, "incore", 0, &reference);
+    let adapt = mean(&reference, |f| f64::from(f.adapt));
+    let tris = mean(&reference, |f| f.tris as f64);
+    let mut table = format!(
+        "| footprint | fits | Virt. ms | Ext. ms | Virt./Ext. | Miss % | Ext. loads | Virt. faults | max resident |\n|---:|---|---:|---:|---:|---:|---:|---:|---:|\n"
+    );
+    let mut psnr = String::from("budget,frame,psnr_db\n");
+    for &b in &budgets {
+        let src = open_scene_source(&a.file, Some(disk))?;
+        let f = Arc::new(VdtFile::open(src)?);
+        let mut virt = VirtStore::start(f.clone(), b)?;
+        let v = walk(&mut virt, &views, a.tolerance, period, |s| s.resident_bytes(), |_| Ok(()))?;
+        let faults = virt.pager.stats.faults;
+        let mut ext = ExtStore::start(f, b)?;
+        let mut samples = Vec::new();
+        let e = walk_ext(&mut ext, &views, a.tolerance, period, a.psnr_every, &mut samples)?;
+        for (k, r) in &samples {
+            let full = rasterise(&views[*k], full.iter().copied());
+            let got = rasterise(&views[*k], r.iter().copied());
+            let d = got.diff(&full, 0).context("image sizes")?;
+            let _ = writeln!(psnr, "{b},{k},{:.2}", d.psnr_db);
+        }
+        log(&mut csv, "virt", b, &v);
+        log(&mut csv, "ext", b, &e);
+        let (vm, em) = (mean(&v, |f| f.ms), mean(&e, |f| f.ms));
+        let misses: u64 = e.iter().map(|f| u64::from(f.misses)).sum();
+        let tried: u64 = e.iter().map(|f| u64::from(f.adapt + f.misses)).sum();
+        let max_res = v.iter().chain(&e).map(|f| f.resident).max().unwrap_or(0);
+        if max_res > b {
+            bail!("resident {max_res} B exceeded the footprint {b} B");
+        }
+        let _ = writeln!(
+            table,
+            "| {:.2} MiB | {} | {vm:.2} | {em:.2} | {:.2} | {:.2} | {} | {faults} | {:.2} MiB |",
+            b as f64 / 1048576.0,
+            if b >= tree_bytes + file.core_bytes() { "yes" } else { "no" },
+            vm / em.max(1e-9),
+            100.0 * misses as f64 / tried.max(1) as f64,
+            ext.stats.loads,
+            max_res as f64 / 1048576.0
+        );
+    }
+    let head = format!(
+        "Adapt {adapt:.0} / frame, Tris {tris:.0} / frame (in core), in-core frame {:.2} ms\n\n",
+        mean(&reference, |f| f.ms)
+    );
+    print!("{head}{table}");
+    std::fs::write(a.out.join("table2.md"), format!("{head}{table}"))?;
+    std::fs::write(a.out.join("frames.csv"), csv)?;
+    if a.psnr_every > 0 {
+        print!("PSNR (dB) of Ext. frames vs the full-resolution mesh:\n{psnr}");
+        std::fs::write(a.out.join("psnr.csv"), psnr)?;
+    }
+    Ok(())
+}
+
+fn parse_footprint(s: &str, tree_bytes: u64) -> Result<u64> {
+    let t = s.trim();
+    if let Some(p) = t.strip_suffix('%') {
+        let v: f64 = p.trim().parse().with_context(|| format!("footprint {s:?}"))?;
+        if !(v > 0.0 && v <= 10_000.0) {
+            bail!("footprint {s:?}: percentage out of range");
+        }
+        return Ok((tree_bytes as f64 * v / 100.0) as u64);
+    }
+    engine::cli::parse_budget(t, tree_bytes)
+}
+
+fn mean(f: &[Frame], g: impl Fn(&Frame) -> f64) -> f64 {
+    f.iter().map(g).sum::<f64>() / f.len().max(1) as f64
+}
+
+fn log(csv: &mut String, store: &str, budget: u64, frames: &[Frame]) {
+    for (k, f) in frames.iter().enumerate() {
+        let _ = writeln!(
+            csv,
+            "{store},{budget},{k},{:.3},{},{},{},{},{}",
+            f.ms, f.adapt, f.misses, f.tris, f.resident, f.loaded
+        );
+    }
+}
+
+/// One pass per frame; the frame's work is the pass and the triangle list.
+fn walk<S: NodeStore>(
+    s: &mut S,
+    views: &[View],
+    tol: f32,
+    period: Duration,
+    resident: impl Fn(&S) -> u64,
+    mut poll: impl FnMut(&mut S) -> Result<()>,
+) -> Result<Vec<Frame>> {
+    let mut r = Refiner::new(s)?;
+    let mut out = Vec::with_capacity(views.len());
+    for v in views {
+        let t0 = Instant::now();
+        poll(s)?;
+        let st = r.pass(s, &Criterion::new(*v, tol))?;
+        let tris = r.triangles();
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        out.push(Frame { ms, adapt: st.adapt(), misses: st.misses, tris: tris.len(), resident: resident(s), loaded: 0 });
+        if let Some(rest) = period.checked_sub(t0.elapsed()) {
+            std::thread::sleep(rest);
+        }
+    }
+    Ok(out)
+}
+
+type Sample = (usize, Vec<[Vec3; 3]>);
+
+fn walk_ext(
+    s: &mut ExtStore,
+    views: &[View],
+    tol: f32,
+    period: Duration,
+    every: usize,
+    samples: &mut Vec<Sample>,
+) -> Result<Vec<Frame>> {
+    let mut r = Refiner::new(s)?;
+    let mut out = Vec::with_capacity(views.len());
+    for (k, v) in views.iter().enumerate() {
+        let t0 = Instant::now();
+        let before = s.stats.loads;
+        s.poll()?;
+        let st = r.pass(s, &Criterion::new(*v, tol))?;
+        let tris = r.triangles();
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        out.push(Frame {
+            ms,
+            adapt: st.adapt(),
+            misses: st.misses,
+            tris: tris.len(),
+            resident: s.resident_bytes(),
+            loaded: s.stats.loads - before,
+        });
+        if every > 0 && k % every == every - 1 {
+            samples.push((k, tris.iter().map(|t| t.2).collect()));
+        }
+        if let Some(rest) = period.checked_sub(t0.elapsed()) {
+            std::thread::sleep(rest);
+        }
+    }
+    Ok(out)
+}
