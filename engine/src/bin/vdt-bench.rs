@@ -28,7 +28,11 @@ use engine::vdt::virt::VirtStore;
 use glam::Vec3;
 
 #[derive(Parser, Debug)]
-#[command(name = "vdt-bench", version, about = "View-dependence trees: Virt. vs Ext. on a camera path")]
+#[command(
+    name = "vdt-bench",
+    version,
+    about = "View-dependence trees: Virt. vs Ext. on a camera path"
+)]
 struct Args {
     /// A `.vdt` file (`hlod-build vdt MODEL -o FILE`).
     file: PathBuf,
@@ -80,7 +84,8 @@ fn run(a: Args) -> Result<()> {
         bail!("--tolerance, --frames and the viewport must be positive");
     }
     let disk = DiskModel::parse(&a.disk).map_err(anyhow::Error::msg)?;
-    let plain = open_scene_source(&a.file, None).with_context(|| format!("{}", a.file.display()))?;
+    let plain =
+        open_scene_source(&a.file, None).with_context(|| format!("{}", a.file.display()))?;
     let file = Arc::new(VdtFile::open(plain).with_context(|| format!("{}", a.file.display()))?);
     let h = file.header;
     let tree_bytes = file.source.len() - h.virt_offset;
@@ -94,7 +99,13 @@ fn run(a: Args) -> Result<()> {
     let diag = (hi - lo).length().max(1e-6);
     let views: Vec<View> = poses
         .iter()
-        .map(|&pose| View { pose, width_px: a.width, height_px: a.height, near: diag * 1e-4, far: diag * 100.0 })
+        .map(|&pose| View {
+            pose,
+            width_px: a.width,
+            height_px: a.height,
+            near: diag * 1e-4,
+            far: diag * 100.0,
+        })
         .collect();
     let budgets = a
         .budgets
@@ -115,7 +126,11 @@ fn run(a: Args) -> Result<()> {
         a.tolerance,
         a.disk
     );
-    let period = if a.fps > 0.0 { Duration::from_secs_f32(1.0 / a.fps) } else { Duration::ZERO };
+    let period = if a.fps > 0.0 {
+        Duration::from_secs_f32(1.0 / a.fps)
+    } else {
+        Duration::ZERO
+    };
     let mut csv = String::from("store,budget,frame,ms,adapt,misses,tris,resident,loaded\n");
     // The in-core reference: the whole tree read up front, never waiting.
     let mut whole = file.load_tree()?;
@@ -124,7 +139,14 @@ fn run(a: Args) -> Result<()> {
         .iter()
         .map(|t| t.map(|l| Vec3::from(whole.positions[l as usize])))
         .collect();
-    let reference = walk(&mut whole, &views, a.tolerance, Duration::ZERO, |_| 0, |_| Ok(()))?;
+    let reference = walk(
+        &mut whole,
+        &views,
+        a.tolerance,
+        Duration::ZERO,
+        |_| 0,
+        |_| Ok(()),
+    )?;
     log(&mut csv, "incore", 0, &reference);
     let adapt = mean(&reference, |f| f64::from(f.adapt));
     let tris = mean(&reference, |f| f.tris as f64);
@@ -136,11 +158,25 @@ fn run(a: Args) -> Result<()> {
         let src = open_scene_source(&a.file, Some(disk))?;
         let f = Arc::new(VdtFile::open(src)?);
         let mut virt = VirtStore::start(f.clone(), b)?;
-        let v = walk(&mut virt, &views, a.tolerance, period, |s| s.resident_bytes(), |_| Ok(()))?;
+        let v = walk(
+            &mut virt,
+            &views,
+            a.tolerance,
+            period,
+            |s| s.resident_bytes(),
+            |_| Ok(()),
+        )?;
         let faults = virt.pager.stats.faults;
         let mut ext = ExtStore::start(f, b)?;
         let mut samples = Vec::new();
-        let e = walk_ext(&mut ext, &views, a.tolerance, period, a.psnr_every, &mut samples)?;
+        let e = walk_ext(
+            &mut ext,
+            &views,
+            a.tolerance,
+            period,
+            a.psnr_every,
+            &mut samples,
+        )?;
         for (k, r) in &samples {
             let full = rasterise(&views[*k], full.iter().copied());
             let got = rasterise(&views[*k], r.iter().copied());
@@ -160,7 +196,11 @@ fn run(a: Args) -> Result<()> {
             table,
             "| {:.2} MiB | {} | {vm:.2} | {em:.2} | {:.2} | {:.2} | {} | {faults} | {:.2} MiB |",
             b as f64 / 1048576.0,
-            if b >= tree_bytes + file.core_bytes() { "yes" } else { "no" },
+            if b >= tree_bytes + file.core_bytes() {
+                "yes"
+            } else {
+                "no"
+            },
             vm / em.max(1e-9),
             100.0 * misses as f64 / tried.max(1) as f64,
             ext.stats.loads,
@@ -184,7 +224,10 @@ fn run(a: Args) -> Result<()> {
 fn parse_footprint(s: &str, tree_bytes: u64) -> Result<u64> {
     let t = s.trim();
     if let Some(p) = t.strip_suffix('%') {
-        let v: f64 = p.trim().parse().with_context(|| format!("footprint {s:?}"))?;
+        let v: f64 = p
+            .trim()
+            .parse()
+            .with_context(|| format!("footprint {s:?}"))?;
         if !(v > 0.0 && v <= 10_000.0) {
             bail!("footprint {s:?}: percentage out of range");
         }
@@ -224,7 +267,14 @@ fn walk<S: NodeStore>(
         let st = r.pass(s, &Criterion::new(*v, tol))?;
         let tris = r.triangles();
         let ms = t0.elapsed().as_secs_f64() * 1e3;
-        out.push(Frame { ms, adapt: st.adapt(), misses: st.misses, tris: tris.len(), resident: resident(s), loaded: 0 });
+        out.push(Frame {
+            ms,
+            adapt: st.adapt(),
+            misses: st.misses,
+            tris: tris.len(),
+            resident: resident(s),
+            loaded: 0,
+        });
         if let Some(rest) = period.checked_sub(t0.elapsed()) {
             std::thread::sleep(rest);
         }

@@ -1,22 +1,31 @@
-//! The main-memory buffer manager of El-Sana & Chiang §3.3.3.
+//! The main-memory buffer manager of El-Sana & Chiang §3.3.3, over a byte
+//! budget.
 //!
-//! `K` place holders, each big enough for the largest meta-node; a hash
-//! table from meta-node to holder; a FIFO **free list** of holders whose
-//! usage and reference counts are both 0. A flushed meta-node keeps its
-//! hash entry until its holder is taken for another one (**second chance**):
-//! freed holders join the list's end, new space comes from its front, and a
-//! request for a flushed meta-node just takes its holder off the list.
+//! Place holders, a hash table from meta-node to holder, and a FIFO **free
+//! list** of holders whose usage and reference counts are both 0. A flushed
+//! meta-node keeps its hash entry until its holder is taken for another one
+//! (**second chance**): freed holders join the list's end, space is taken
+//! from its front, and a request for a flushed meta-node just takes its
+//! holder off the list.
+//!
+//! The paper's holders all have the size of the largest meta-node, which
+//! "do not differ too much" there. Collapse trees are chain-like, so our
+//! meta-nodes range from one node to a full block (median a tenth of the
+//! largest): fixed holders would waste most of the footprint. A holder here
+//! is as big as its meta-node, the capacity is in bytes, and making room
+//! takes as many free-list entries from the front as needed — the same
+//! order, counts and rules otherwise.
 //!
 //! - *usage count*: active tree nodes inside the meta-node (only the
 //!   navigating side changes it: here, the owner of this struct);
 //! - *reference count*: active parent plus active child meta-nodes;
 //!   raising it on a meta-node not in real memory asks for a prefetch,
 //!   lowering it on one not in real memory does nothing.
-//! - A plain prefetch gives up when the free list is empty. An **urgent**
-//!   one (a wanted switch whose meta-node is missing) may take the holder of
-//!   the first meta-node that is only prefetched (usage 0): always for a
-//!   switch up, for a switch down only while at least three holders in real
-//!   memory are not in use.
+//! - A plain prefetch gives up when the free list cannot make room. An
+//!   **urgent** one (a wanted switch whose meta-node is missing) may also
+//!   take the holders of the first meta-nodes that are only prefetched
+//!   (usage 0): always for a switch up, for a switch down only while at
+//!   least three holders in real memory are not in use.
 //!
 //! The manager only does bookkeeping; the caller reads the data into the
 //! holder it is told to fill and reports back with [`BufferManager::loaded`].
@@ -48,60 +57,83 @@ pub enum Content {
 }
 
 /// What a request found.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Request {
     /// In real memory already (ready or loading).
     Present(u32),
     /// Was flushed but still in its holder: back in real memory, no read.
     SecondChance(u32),
-    /// Read it into this holder; `evicted` is the meta-node whose hash entry
-    /// it loses (or `NONE`).
-    Load { holder: u32, evicted: u32 },
-    /// No holder could be had.
+    /// Read it into this new holder; `evicted` lists the `(meta-node,
+    /// holder)` pairs whose space it took (they lose their hash entries).
+    Load {
+        holder: u32,
+        evicted: Vec<(u32, u32)>,
+    },
+    /// No room could be had.
     GiveUp,
+}
+
+impl Request {
+    /// The holder, unless the request gave up.
+    pub fn holder(&self) -> Option<u32> {
+        match self {
+            Self::Present(h) | Self::SecondChance(h) | Self::Load { holder: h, .. } => Some(*h),
+            Self::GiveUp => None,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Holder {
     pub meta: u32,
+    pub bytes: u32,
     pub usage: u32,
     pub refs: u32,
     pub content: Content,
 }
 
+const EMPTY: Holder = Holder {
+    meta: NONE,
+    bytes: 0,
+    usage: 0,
+    refs: 0,
+    content: Content::Empty,
+};
+
 /// Place holders, hash table and free list.
 #[derive(Debug)]
 pub struct BufferManager {
     holders: Vec<Holder>,
+    /// Holder slots without content, reused last-in first-out.
+    spare: Vec<u32>,
     table: HashMap<u32, u32>,
     /// Front = least recently freed.
     free: LruCache<u32, ()>,
+    capacity: u64,
+    /// Bytes of every holder with content (flushed ones too).
+    used: u64,
 }
 
 impl BufferManager {
-    /// `k` empty holders, all on the free list.
-    pub fn new(k: usize) -> Self {
-        let mut free = LruCache::unbounded();
-        for h in 0..k as u32 {
-            free.push(h, ());
-        }
+    /// An empty buffer of `capacity` bytes.
+    pub fn new(capacity: u64) -> Self {
         Self {
-            holders: vec![
-                Holder {
-                    meta: NONE,
-                    usage: 0,
-                    refs: 0,
-                    content: Content::Empty,
-                };
-                k
-            ],
+            holders: Vec::new(),
+            spare: Vec::new(),
             table: HashMap::new(),
-            free,
+            free: LruCache::unbounded(),
+            capacity,
+            used: 0,
         }
     }
 
-    pub fn capacity(&self) -> usize {
-        self.holders.len()
+    pub fn capacity(&self) -> u64 {
+        self.capacity
+    }
+
+    /// Bytes held (never above the capacity).
+    pub fn used(&self) -> u64 {
+        self.used
     }
 
     pub fn holder(&self, h: u32) -> &Holder {
@@ -139,8 +171,9 @@ impl BufferManager {
         self.free.iter().rev().map(|(&h, _)| h).collect()
     }
 
-    /// Brings `meta` into real memory if it can (see [`Urgency`]).
-    pub fn request(&mut self, meta: u32, urgency: Urgency) -> Request {
+    /// Brings `meta` (`bytes` long) into real memory if it can (see
+    /// [`Urgency`]).
+    pub fn request(&mut self, meta: u32, bytes: u32, urgency: Urgency) -> Request {
         if let Some(h) = self.find(meta) {
             return if self.free.pop(&h).is_some() {
                 Request::SecondChance(h)
@@ -148,36 +181,80 @@ impl BufferManager {
                 Request::Present(h)
             };
         }
-        let h = if let Some((h, ())) = self.free.pop_lru() {
-            h
-        } else {
+        let need = u64::from(bytes);
+        if need > self.capacity {
+            return Request::GiveUp;
+        }
+        // Plan the evictions first; give up without touching anything.
+        let mut room = self.capacity - self.used;
+        let mut victims = Vec::new();
+        for h in self.free_list() {
+            if room >= need {
+                break;
+            }
+            room += u64::from(self.holders[h as usize].bytes);
+            victims.push(h);
+        }
+        if room < need {
             let allowed = match urgency {
                 Urgency::Prefetch => false,
                 Urgency::Up => true,
                 Urgency::Down => self.unused_in_real() >= 3,
             };
-            // The first meta-node that is only prefetched, not in use.
-            let victim = self
-                .holders
-                .iter()
-                .position(|x| x.meta != NONE && x.usage == 0 && x.content == Content::Ready);
-            match victim {
-                Some(v) if allowed => v as u32,
-                _ => return Request::GiveUp,
+            if !allowed {
+                return Request::GiveUp;
             }
-        };
-        let old = self.holders[h as usize].meta;
-        if old != NONE {
-            self.table.remove(&old);
+            // The first meta-nodes that are only prefetched, not in use.
+            for (h, x) in self.holders.iter().enumerate() {
+                if room >= need {
+                    break;
+                }
+                let h = h as u32;
+                if x.meta != NONE
+                    && x.usage == 0
+                    && x.content == Content::Ready
+                    && !self.free.contains(&h)
+                {
+                    room += u64::from(x.bytes);
+                    victims.push(h);
+                }
+            }
+            if room < need {
+                return Request::GiveUp;
+            }
         }
+        let evicted = victims
+            .into_iter()
+            .map(|h| {
+                let m = self.holders[h as usize].meta;
+                self.release(h);
+                (m, h)
+            })
+            .collect();
+        let h = self.spare.pop().unwrap_or_else(|| {
+            self.holders.push(EMPTY);
+            self.holders.len() as u32 - 1
+        });
         self.table.insert(meta, h);
+        self.used += need;
         self.holders[h as usize] = Holder {
             meta,
+            bytes,
             usage: 0,
             refs: 0,
             content: Content::Loading,
         };
-        Request::Load { holder: h, evicted: old }
+        Request::Load { holder: h, evicted }
+    }
+
+    /// Empties holder `h` (its meta-node loses its hash entry).
+    fn release(&mut self, h: u32) {
+        let x = self.holders[h as usize];
+        self.table.remove(&x.meta);
+        self.free.pop(&h);
+        self.used -= u64::from(x.bytes);
+        self.holders[h as usize] = EMPTY;
+        self.spare.push(h);
     }
 
     /// The read into `h` for `meta` finished (`ok` false: it failed, and
@@ -192,26 +269,16 @@ impl BufferManager {
             x.content = Content::Ready;
             self.maybe_flush(h);
         } else {
-            self.table.remove(&meta);
-            *x = Holder {
-                meta: NONE,
-                usage: 0,
-                refs: 0,
-                content: Content::Empty,
-            };
-            self.free.pop(&h);
-            // A failed holder is reused first.
-            self.free.push(h, ());
-            self.free.demote(&h);
+            self.release(h);
         }
         true
     }
 
     /// Raises `meta`'s reference count, prefetching it if it is not in real
-    /// memory. Returns the request made (or `Present`).
-    pub fn ref_inc(&mut self, meta: u32) -> Request {
-        let r = self.request(meta, Urgency::Prefetch);
-        if let Request::Present(h) | Request::SecondChance(h) | Request::Load { holder: h, .. } = r {
+    /// memory. Returns the request made.
+    pub fn ref_inc(&mut self, meta: u32, bytes: u32) -> Request {
+        let r = self.request(meta, bytes, Urgency::Prefetch);
+        if let Some(h) = r.holder() {
             self.holders[h as usize].refs += 1;
         }
         r
@@ -240,23 +307,28 @@ impl BufferManager {
 
     /// A holder with both counts 0 goes to the end of the free list; its
     /// hash entry stays (second chance). One still loading waits for its
-    /// data (so at most `K` reads are ever outstanding).
+    /// data.
     pub fn maybe_flush(&mut self, h: u32) {
         let x = &self.holders[h as usize];
-        if x.usage == 0
-            && x.refs == 0
-            && x.content == Content::Ready
-            && !self.free.contains(&h)
-        {
+        if x.usage == 0 && x.refs == 0 && x.content == Content::Ready && !self.free.contains(&h) {
             self.free.push(h, ());
         }
     }
 
     /// Consistency of table, holders and free list.
     pub fn validate(&self) -> Result<(), String> {
+        let used: u64 = self.holders.iter().map(|x| u64::from(x.bytes)).sum();
+        if used != self.used || used > self.capacity {
+            return Err(format!(
+                "{used} bytes held, {} counted, capacity {}",
+                self.used, self.capacity
+            ));
+        }
         for (&m, &h) in &self.table {
             if self.holders.get(h as usize).map(|x| x.meta) != Some(m) {
-                return Err(format!("table maps {m} to holder {h} holding something else"));
+                return Err(format!(
+                    "table maps {m} to holder {h} holding something else"
+                ));
             }
         }
         for (h, x) in self.holders.iter().enumerate() {
@@ -268,12 +340,8 @@ impl BufferManager {
             if free && (x.usage > 0 || x.refs > 0) {
                 return Err(format!("holder {h} free while counted"));
             }
-            if !free && x.meta != NONE && x.usage == 0 && x.refs == 0 && x.content == Content::Ready
-            {
-                return Err(format!("holder {h} unreferenced but not free"));
-            }
-            if x.meta == NONE && !free {
-                return Err(format!("empty holder {h} not free"));
+            if x.meta == NONE && (free || !self.spare.contains(&h)) {
+                return Err(format!("empty holder {h} on the free list or lost"));
             }
         }
         Ok(())

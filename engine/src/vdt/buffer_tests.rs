@@ -2,31 +2,34 @@ use proptest::prelude::*;
 
 use super::*;
 
-/// The reference model: the paper's rules written as plainly as possible
-/// (vectors, linear scans).
-#[derive(Default)]
+/// Size of meta-node `m` in the tests: they differ, as real ones do.
+fn size(m: u32) -> u32 {
+    40 + (m * 37) % 100
+}
+
+/// The reference model: the rules written as plainly as possible (vectors,
+/// linear scans, recomputed sums).
 struct Model {
     holders: Vec<Holder>,
+    spare: Vec<u32>,
     free: Vec<u32>,
+    capacity: u64,
 }
 
 impl Model {
-    fn new(k: usize) -> Self {
-        Self {
-            holders: vec![
-                Holder {
-                    meta: NONE,
-                    usage: 0,
-                    refs: 0,
-                    content: Content::Empty
-                };
-                k
-            ],
-            free: (0..k as u32).collect(),
-        }
+    fn used(&self) -> u64 {
+        self.holders.iter().map(|x| u64::from(x.bytes)).sum()
     }
     fn find(&self, m: u32) -> Option<u32> {
-        self.holders.iter().position(|x| x.meta == m).map(|h| h as u32)
+        self.holders
+            .iter()
+            .position(|x| x.meta == m)
+            .map(|h| h as u32)
+    }
+    fn release(&mut self, h: u32) {
+        self.free.retain(|&f| f != h);
+        self.holders[h as usize] = EMPTY;
+        self.spare.push(h);
     }
     fn request(&mut self, m: u32, u: Urgency) -> Request {
         if let Some(h) = self.find(m) {
@@ -36,31 +39,62 @@ impl Model {
             }
             return Request::Present(h);
         }
-        let h = if !self.free.is_empty() {
-            self.free.remove(0)
-        } else {
-            let unused = self
-                .holders
-                .iter()
-                .filter(|x| x.meta != NONE && x.usage == 0)
+        let need = u64::from(size(m));
+        if need > self.capacity {
+            return Request::GiveUp;
+        }
+        let mut room = self.capacity - self.used();
+        let mut victims = Vec::new();
+        for &h in &self.free {
+            if room >= need {
+                break;
+            }
+            room += u64::from(self.holders[h as usize].bytes);
+            victims.push(h);
+        }
+        if room < need {
+            let unused = (0..self.holders.len() as u32)
+                .filter(|h| {
+                    let x = self.holders[*h as usize];
+                    x.meta != NONE && x.usage == 0 && !self.free.contains(h)
+                })
                 .count();
             let ok = match u {
                 Urgency::Prefetch => false,
                 Urgency::Up => true,
                 Urgency::Down => unused >= 3,
             };
-            match self
-                .holders
-                .iter()
-                .position(|x| x.meta != NONE && x.usage == 0 && x.content == Content::Ready)
-            {
-                Some(v) if ok => v as u32,
-                _ => return Request::GiveUp,
+            if !ok {
+                return Request::GiveUp;
             }
-        };
-        let evicted = self.holders[h as usize].meta;
+            for h in 0..self.holders.len() as u32 {
+                let x = self.holders[h as usize];
+                if room < need
+                    && x.meta != NONE
+                    && x.usage == 0
+                    && x.content == Content::Ready
+                    && !self.free.contains(&h)
+                {
+                    room += u64::from(x.bytes);
+                    victims.push(h);
+                }
+            }
+            if room < need {
+                return Request::GiveUp;
+            }
+        }
+        let mut evicted = Vec::new();
+        for h in victims {
+            evicted.push((self.holders[h as usize].meta, h));
+            self.release(h);
+        }
+        let h = self.spare.pop().unwrap_or_else(|| {
+            self.holders.push(EMPTY);
+            self.holders.len() as u32 - 1
+        });
         self.holders[h as usize] = Holder {
             meta: m,
+            bytes: size(m),
             usage: 0,
             refs: 0,
             content: Content::Loading,
@@ -98,14 +132,14 @@ fn op() -> impl Strategy<Value = Op> {
 
 proptest! {
     #[test]
-    fn buffer_manager_matches_the_reference_model(k in 1usize..7, ops in prop::collection::vec(op(), 1..200)) {
-        let mut b = BufferManager::new(k);
-        let mut m = Model::new(k);
+    fn buffer_manager_matches_the_reference_model(cap in 100u64..700, ops in prop::collection::vec(op(), 1..200)) {
+        let mut b = BufferManager::new(cap);
+        let mut m = Model { holders: Vec::new(), spare: Vec::new(), free: Vec::new(), capacity: cap };
         for o in ops {
             match o {
                 Op::Request(x, u) => {
                     let u = [Urgency::Prefetch, Urgency::Up, Urgency::Down][u as usize];
-                    prop_assert_eq!(b.request(x, u), m.request(x, u));
+                    prop_assert_eq!(b.request(x, size(x), u), m.request(x, u));
                 }
                 Op::Finish(x, ok) => {
                     if let Some(h) = m.find(x).filter(|&h| m.holders[h as usize].content == Content::Loading) {
@@ -114,16 +148,14 @@ proptest! {
                             m.holders[h as usize].content = Content::Ready;
                             m.flush(h);
                         } else {
-                            m.holders[h as usize] = Holder { meta: NONE, usage: 0, refs: 0, content: Content::Empty };
-                            m.free.retain(|&f| f != h);
-                            m.free.insert(0, h);
+                            m.release(h);
                         }
                     }
                 }
                 Op::RefInc(x) => {
-                    let r = b.ref_inc(x);
-                    prop_assert_eq!(r, m.request(x, Urgency::Prefetch));
-                    if let Request::Present(h) | Request::SecondChance(h) | Request::Load { holder: h, .. } = r {
+                    let r = b.ref_inc(x, size(x));
+                    prop_assert_eq!(&r, &m.request(x, Urgency::Prefetch));
+                    if let Some(h) = r.holder() {
                         m.holders[h as usize].refs += 1;
                     }
                 }
@@ -151,16 +183,18 @@ proptest! {
                 }
             }
             b.validate().map_err(TestCaseError::fail)?;
+            prop_assert!(b.used() <= cap, "budget exceeded");
+            prop_assert_eq!(b.used(), m.used());
             prop_assert_eq!(b.free_list(), m.free.clone());
-            for h in 0..k as u32 {
+            for h in 0..m.holders.len() as u32 {
                 prop_assert_eq!(*b.holder(h), m.holders[h as usize]);
             }
         }
     }
 }
 
-fn load(b: &mut BufferManager, m: u32, u: Urgency) -> u32 {
-    match b.request(m, u) {
+fn load(b: &mut BufferManager, m: u32, bytes: u32, u: Urgency) -> u32 {
+    match b.request(m, bytes, u) {
         Request::Load { holder, .. } => {
             assert!(b.loaded(holder, m, true));
             holder
@@ -170,64 +204,69 @@ fn load(b: &mut BufferManager, m: u32, u: Urgency) -> u32 {
 }
 
 #[test]
-fn a_flushed_meta_node_gets_a_second_chance_until_its_holder_is_reused() {
-    let mut b = BufferManager::new(2);
-    let h0 = load(&mut b, 10, Urgency::Prefetch);
+fn a_flushed_meta_node_gets_a_second_chance_until_its_space_is_taken() {
+    let mut b = BufferManager::new(200);
+    let h0 = load(&mut b, 10, 100, Urgency::Prefetch);
     b.use_inc(h0);
     b.use_dec(h0); // flushed: end of the free list, still in the table
     assert!(!b.in_real(10) && b.find(10) == Some(h0));
-    assert_eq!(b.request(10, Urgency::Prefetch), Request::SecondChance(h0));
+    assert_eq!(
+        b.request(10, 100, Urgency::Prefetch),
+        Request::SecondChance(h0)
+    );
     b.maybe_flush(h0);
-    // The other (never used) holder is taken first; then 10's.
-    let h1 = load(&mut b, 11, Urgency::Prefetch);
-    assert_ne!(h1, h0);
+    // Free bytes are used first; 10 keeps its place.
+    let h1 = load(&mut b, 11, 100, Urgency::Prefetch);
     assert_eq!(b.find(10), Some(h0));
     b.maybe_flush(h1);
     assert_eq!(b.free_list(), vec![h0, h1]);
+    // A bigger one takes both, front first.
     assert_eq!(
-        b.request(12, Urgency::Prefetch),
+        b.request(12, 150, Urgency::Prefetch),
         Request::Load {
-            holder: h0,
-            evicted: 10
+            holder: h1,
+            evicted: vec![(10, h0), (11, h1)]
         }
     );
     assert_eq!(b.find(10), None);
+    assert_eq!(b.used(), 150);
 }
 
 #[test]
 fn urgent_switch_down_needs_three_unused_holders_switch_up_does_not() {
-    let mut b = BufferManager::new(4);
-    // Four prefetched (referenced, unused) meta-nodes fill every holder.
-    for m in 0..4 {
-        let r = b.ref_inc(m);
-        let Request::Load { holder, .. } = r else {
-            panic!("{r:?}")
-        };
-        assert!(b.loaded(holder, m, true));
-    }
-    assert_eq!(b.request(9, Urgency::Prefetch), Request::GiveUp);
+    let fill = || {
+        let mut b = BufferManager::new(400);
+        // Four prefetched (referenced, unused) meta-nodes fill the buffer.
+        for m in 0..4 {
+            let Request::Load { holder, .. } = b.ref_inc(m, 100) else {
+                panic!()
+            };
+            assert!(b.loaded(holder, m, true));
+        }
+        b
+    };
+    let mut b = fill();
+    assert_eq!(b.request(9, 100, Urgency::Prefetch), Request::GiveUp);
     // Two in use: two unused left, a switch down may not take one.
     b.use_inc(b.find(0).unwrap());
     b.use_inc(b.find(1).unwrap());
     assert_eq!(b.unused_in_real(), 2);
-    assert_eq!(b.request(9, Urgency::Down), Request::GiveUp);
+    assert_eq!(b.request(9, 100, Urgency::Down), Request::GiveUp);
     // A switch up always may: the first prefetched-only holder goes.
     let h2 = b.find(2).unwrap();
     assert_eq!(
-        b.request(9, Urgency::Up),
+        b.request(9, 100, Urgency::Up),
         Request::Load {
             holder: h2,
-            evicted: 2
+            evicted: vec![(2, h2)]
         }
     );
     // With three unused a switch down may too.
-    let mut b = BufferManager::new(4);
-    for m in 0..4 {
-        let Request::Load { holder, .. } = b.ref_inc(m) else {
-            panic!()
-        };
-        b.loaded(holder, m, true);
-    }
+    let mut b = fill();
     b.use_inc(b.find(0).unwrap());
-    assert!(matches!(b.request(9, Urgency::Down), Request::Load { evicted: 1, .. }));
+    assert!(
+        matches!(b.request(9, 100, Urgency::Down), Request::Load { ref evicted, .. } if evicted[0].0 == 1)
+    );
+    // Nothing bigger than the whole buffer.
+    assert_eq!(b.request(99, 401, Urgency::Up), Request::GiveUp);
 }

@@ -4,9 +4,9 @@
 //! [`BufferManager`] and is the only one to change usage counts; the *I/O*
 //! thread only reads and decodes meta-nodes into the holders it is told to
 //! fill, so the paper's locks become two bounded channels (urgent reads
-//! first). A holder is reserved when its read is issued, so the resident
-//! bytes — the in-core MNT and permanent triangles plus `K` holders of the
-//! largest meta-node's size — never exceed the footprint.
+//! first). A holder's bytes are reserved when its read is issued, so the
+//! resident bytes — the in-core MNT and permanent triangles plus the
+//! holders — never exceed the footprint.
 //!
 //! When a meta-node gets its first active node it references its parent and
 //! child meta-nodes (prefetching them); when it loses its last one it drops
@@ -51,6 +51,7 @@ pub struct ExtStats {
     pub give_ups: u64,
     pub urgent: u64,
     pub failed: u64,
+    pub requested_bytes: u64,
 }
 
 /// Meta-node trees read on demand into `K` place holders.
@@ -69,25 +70,30 @@ pub struct ExtStore {
 }
 
 impl ExtStore {
-    /// Holders that fit in `budget` bytes after the in-core part; an error
-    /// when fewer than the root meta-nodes plus three.
-    pub fn holders_for(file: &VdtFile, budget: u64) -> Result<usize, VdtError> {
-        let per = u64::from(file.header.max_meta_bytes.max(1));
-        let k = budget.saturating_sub(file.core_bytes()) / per;
-        let need = u64::from(file.header.root_count) + 3;
+    /// Holder bytes that fit in `budget` after the in-core part; an error
+    /// when the root meta-nodes and three of the largest do not fit.
+    pub fn buffer_for(file: &VdtFile, budget: u64) -> Result<u64, VdtError> {
+        let roots: u64 = file.mnt[..file.header.root_count as usize]
+            .iter()
+            .map(|r| u64::from(r.len))
+            .sum();
+        let need = roots + 3 * u64::from(file.header.max_meta_bytes);
+        let k = budget.saturating_sub(file.core_bytes());
         if k < need {
             return Err(VdtError::Corrupt(format!(
-                "footprint of {budget} bytes too small: the in-core part takes {} and at least {need} place holders of {per} bytes are needed",
+                "footprint of {budget} bytes too small: the in-core part takes {} and the root meta-nodes with room to move {need} more",
                 file.core_bytes()
             )));
         }
-        Ok(k as usize)
+        Ok(k)
     }
 
     /// Starts the I/O thread and loads the root meta-nodes (waiting for
     /// them: the coarsest level must be there to draw anything).
     pub fn start(file: Arc<VdtFile>, budget: u64) -> Result<Self, VdtError> {
-        let k = Self::holders_for(&file, budget)?;
+        let bytes = Self::buffer_for(&file, budget)?;
+        // Every outstanding read holds a holder of at least 16 bytes.
+        let k = (bytes / 16).clamp(16, 1 << 20) as usize;
         let (urgent_tx, urgent_rx) = crossbeam_channel::bounded::<(u32, u32)>(k);
         let (prefetch_tx, prefetch_rx) = crossbeam_channel::bounded::<(u32, u32)>(k);
         let (done_tx, done_rx) = crossbeam_channel::bounded::<Loaded>(k);
@@ -97,8 +103,8 @@ impl ExtStore {
             .spawn(move || io_thread(&f, &urgent_rx, &prefetch_rx, &done_tx))?;
         let mut s = Self {
             file,
-            buf: BufferManager::new(k),
-            residents: (0..k).map(|_| None).collect(),
+            buf: BufferManager::new(bytes),
+            residents: Vec::new(),
             node_at: HashMap::new(),
             bad: HashSet::new(),
             urgent_tx,
@@ -126,14 +132,9 @@ impl ExtStore {
         Ok(s)
     }
 
-    /// Resident bytes: the in-core part plus every place holder.
+    /// Resident bytes: the in-core part plus the holders' meta-nodes.
     pub fn resident_bytes(&self) -> u64 {
-        self.file.core_bytes()
-            + self.buf.capacity() as u64 * u64::from(self.file.header.max_meta_bytes)
-    }
-
-    pub fn holders(&self) -> usize {
-        self.buf.capacity()
+        self.file.core_bytes() + self.buf.used()
     }
 
     /// Takes in what the I/O thread finished (call once per frame).
@@ -171,6 +172,9 @@ impl ExtStore {
                 }
                 self.stats.loads += 1;
                 self.stats.bytes_read += u64::from(self.file.mnt[meta as usize].len);
+                if self.residents.len() <= h as usize {
+                    self.residents.resize_with(h as usize + 1, || None);
+                }
                 self.residents[h as usize] = Some(r);
             }
         }
@@ -200,7 +204,9 @@ impl ExtStore {
             at = end;
         }
         if at != d.triangles.len() {
-            return Err(VdtError::Corrupt(format!("meta-node {meta}: adjacency counts")));
+            return Err(VdtError::Corrupt(format!(
+                "meta-node {meta}: adjacency counts"
+            )));
         }
         Ok(Resident {
             meta,
@@ -217,20 +223,24 @@ impl ExtStore {
         if self.bad.contains(&meta) {
             return Request::GiveUp;
         }
+        let bytes = self.file.mnt[meta as usize].len;
         let r = if urgency == Urgency::Prefetch {
-            self.buf.ref_inc(meta)
+            self.buf.ref_inc(meta, bytes)
         } else {
-            self.buf.request(meta, urgency)
+            self.buf.request(meta, bytes, urgency)
         };
-        self.after(meta, r, urgency != Urgency::Prefetch);
+        self.after(meta, &r, urgency != Urgency::Prefetch);
         r
     }
 
-    fn after(&mut self, meta: u32, r: Request, urgent: bool) {
-        match r {
-            Request::Load { holder, evicted } => {
-                if evicted != NONE {
-                    self.evict(holder);
+    fn after(&mut self, meta: u32, r: &Request, urgent: bool) {
+        match *r {
+            Request::Load {
+                holder,
+                ref evicted,
+            } => {
+                for &(_, h) in evicted {
+                    self.evict(h);
                 }
                 let tx = if urgent {
                     self.stats.urgent += 1;
@@ -241,6 +251,7 @@ impl ExtStore {
                 // At most K reads are outstanding (one per loading holder),
                 // and each channel holds K: this never blocks.
                 let _ = tx.send((meta, holder));
+                self.stats.requested_bytes += u64::from(self.file.mnt[meta as usize].len);
             }
             Request::SecondChance(_) => self.stats.second_chances += 1,
             Request::GiveUp => self.stats.give_ups += 1,
@@ -249,7 +260,7 @@ impl ExtStore {
     }
 
     fn evict(&mut self, h: u32) {
-        if let Some(r) = self.residents[h as usize].take() {
+        if let Some(r) = self.residents.get_mut(h as usize).and_then(Option::take) {
             for (id, _) in &r.nodes {
                 self.node_at.remove(id);
             }
@@ -264,19 +275,22 @@ impl ExtStore {
     }
 
     fn position(&self, h: u32, leaf: u32) -> Option<Vec3> {
-        let r = self.residents[h as usize].as_ref()?;
+        let r = self.residents.get(h as usize).and_then(Option::as_ref)?;
         let k = r.leaves.binary_search_by_key(&leaf, |x| x.0).ok()?;
         Some(r.leaves[k].1)
     }
 
     fn meta_of(&self, h: u32) -> u32 {
-        self.residents[h as usize].as_ref().map_or(NONE, |r| r.meta)
+        self.residents
+            .get(h as usize)
+            .and_then(Option::as_ref)
+            .map_or(NONE, |r| r.meta)
     }
 
     /// The meta-node holding `child` of `v` (same or child meta-node).
     fn child_meta(&self, v: u32, child: u32) -> Option<u32> {
         let &(h, _) = self.node_at.get(&v)?;
-        let r = self.residents[h as usize].as_ref()?;
+        let r = self.residents.get(h as usize).and_then(Option::as_ref)?;
         Some(r.child_meta.get(&child).copied().unwrap_or(r.meta))
     }
 
@@ -284,7 +298,10 @@ impl ExtStore {
         let rec = &self.file.mnt[meta as usize];
         let kids = rec.first_child..rec.first_child.saturating_add(rec.child_count);
         let parent = (rec.parent != NONE).then_some(rec.parent);
-        parent.into_iter().chain(if rec.child_count > 0 { kids } else { 0..0 }).collect()
+        parent
+            .into_iter()
+            .chain(if rec.child_count > 0 { kids } else { 0..0 })
+            .collect()
     }
 }
 
@@ -292,15 +309,20 @@ impl NodeStore for ExtStore {
     fn roots(&mut self) -> Result<Vec<Placed>, VdtError> {
         let mut out = Vec::new();
         for m in 0..self.file.header.root_count {
-            let r = self.buf.request(m, Urgency::Up);
-            self.after(m, r, true);
+            self.want(m, Urgency::Up);
             let h = self
                 .buf
                 .ready(m)
                 .ok_or_else(|| VdtError::Corrupt(format!("root meta-node {m} unreadable")))?;
-            let r = self.residents[h as usize].as_ref().expect("ready holder");
+            let r = self
+                .residents
+                .get(h as usize)
+                .and_then(Option::as_ref)
+                .expect("ready holder");
             let (id, node) = r.nodes[0];
-            let pos = self.position(h, node.leaf).ok_or_else(|| VdtError::Corrupt(format!("root {id}: no position")))?;
+            let pos = self
+                .position(h, node.leaf)
+                .ok_or_else(|| VdtError::Corrupt(format!("root {id}: no position")))?;
             out.push(Placed { id, node, pos });
         }
         Ok(out)
@@ -319,7 +341,13 @@ impl NodeStore for ExtStore {
                 }
                 return Ok(None);
             };
-            let node = self.residents[h as usize].as_ref().expect("resident").nodes[i as usize].1;
+            let node = self
+                .residents
+                .get(h as usize)
+                .and_then(Option::as_ref)
+                .expect("resident")
+                .nodes[i as usize]
+                .1;
             let pos = if k == 0 {
                 v.pos
             } else {
@@ -336,7 +364,15 @@ impl NodeStore for ExtStore {
     fn parent(&mut self, v: &Placed) -> Result<Option<(u32, VdNode)>, VdtError> {
         let p = v.node.parent;
         if let Some((h, i)) = self.lookup(p) {
-            return Ok(Some((p, self.residents[h as usize].as_ref().expect("resident").nodes[i as usize].1)));
+            return Ok(Some((
+                p,
+                self.residents
+                    .get(h as usize)
+                    .and_then(Option::as_ref)
+                    .expect("resident")
+                    .nodes[i as usize]
+                    .1,
+            )));
         }
         // v is the top of its meta-node: the parent is in the parent meta-node.
         if let Some(&(h, _)) = self.node_at.get(&v.id) {
@@ -352,7 +388,11 @@ impl NodeStore for ExtStore {
         let Some((h, i)) = self.lookup(v) else {
             return Ok(None);
         };
-        let r = self.residents[h as usize].as_ref().expect("resident");
+        let r = self
+            .residents
+            .get(h as usize)
+            .and_then(Option::as_ref)
+            .expect("resident");
         Ok(Some(r.tris[r.adj[i as usize].clone()].to_vec()))
     }
 
@@ -363,8 +403,7 @@ impl NodeStore for ExtStore {
         let meta = self.meta_of(h);
         if !self.buf.in_real(meta) {
             // Second chance: found in its holder, taken off the free list.
-            let r = self.buf.request(meta, Urgency::Up);
-            self.after(meta, r, true);
+            self.want(meta, Urgency::Up);
         }
         let first = self.buf.holder(h).usage == 0;
         self.buf.use_inc(h);

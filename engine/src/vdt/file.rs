@@ -156,7 +156,9 @@ pub struct VdtFile {
 
 impl std::fmt::Debug for VdtFile {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("VdtFile").field("header", &self.header).finish()
+        f.debug_struct("VdtFile")
+            .field("header", &self.header)
+            .finish()
     }
 }
 
@@ -180,8 +182,12 @@ impl VdtFile {
         let metas = u64::from(h.meta_count);
         let mnt_len = metas * 32;
         let perm_len = u64::from(h.permanent_count) * TRI_ENTRY;
-        let internal = nodes.checked_sub(n).ok_or_else(|| corrupt("fewer nodes than leaves"))?;
-        let virt_len = nodes * NODE_ENTRY + n * 12 + (internal + 1) * 4
+        let internal = nodes
+            .checked_sub(n)
+            .ok_or_else(|| corrupt("fewer nodes than leaves"))?;
+        let virt_len = nodes * NODE_ENTRY
+            + n * 12
+            + (internal + 1) * 4
             + h.adjacency_count * TRI_ENTRY
             + u64::from(h.root_count) * 4;
         if h.data_offset != 112 + mnt_len + perm_len
@@ -197,7 +203,10 @@ impl VdtFile {
         if crc32fast::hash(&mb) != h.mnt_crc {
             return Err(VdtError::Checksum("MNT"));
         }
-        let mnt: Vec<MntRecord> = mb.chunks_exact(32).map(bytemuck::pod_read_unaligned).collect();
+        let mnt: Vec<MntRecord> = mb
+            .chunks_exact(32)
+            .map(bytemuck::pod_read_unaligned)
+            .collect();
         for (i, r) in mnt.iter().enumerate() {
             let kids_ok = r.child_count == 0
                 || (u64::from(r.first_child) + u64::from(r.child_count) <= metas
@@ -218,7 +227,10 @@ impl VdtFile {
                 (w[0], [w[1], w[2], w[3]])
             })
             .collect();
-        if permanent.iter().any(|(t, c)| *t >= h.triangle_count || c.iter().any(|&v| u64::from(v) >= n)) {
+        if permanent
+            .iter()
+            .any(|(t, c)| *t >= h.triangle_count || c.iter().any(|&v| u64::from(v) >= n))
+        {
             return Err(corrupt("permanent triangle out of range"));
         }
         Ok(Self {
@@ -241,7 +253,8 @@ impl VdtFile {
             .get(id as usize)
             .ok_or_else(|| corrupt("meta-node id out of range"))?;
         let mut buf = vec![0u8; r.len as usize];
-        self.source.read_at(self.header.data_offset + r.offset, &mut buf)?;
+        self.source
+            .read_at(self.header.data_offset + r.offset, &mut buf)?;
         meta::decode(&buf, r).map_err(|e| VdtError::Corrupt(format!("meta-node {id}: {e}")))
     }
 

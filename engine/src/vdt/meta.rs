@@ -350,7 +350,9 @@ pub fn decode(bytes: &[u8], rec: &MntRecord) -> Result<DecodedMeta, String> {
         w += 1;
         v
     };
-    let triangles = (0..nt).map(|_| (next(), [next(), next(), next()])).collect();
+    let triangles = (0..nt)
+        .map(|_| (next(), [next(), next(), next()]))
+        .collect();
     let leaves = (0..nl)
         .map(|_| {
             let id = next();

@@ -34,7 +34,11 @@ pub fn rasterise(view: &View, tris: impl IntoIterator<Item = [Vec3; 3]>) -> Rgba
         }
         let s = c.map(|v| {
             let n = v.xyz() / v.w;
-            Vec3::new((n.x + 1.0) * 0.5 * w as f32, (1.0 - n.y) * 0.5 * h as f32, n.z)
+            Vec3::new(
+                (n.x + 1.0) * 0.5 * w as f32,
+                (1.0 - n.y) * 0.5 * h as f32,
+                n.z,
+            )
         });
         let area = (s[1].x - s[0].x) * (s[2].y - s[0].y) - (s[2].x - s[0].x) * (s[1].y - s[0].y);
         if area.abs() < 1e-12 {
@@ -42,10 +46,30 @@ pub fn rasterise(view: &View, tris: impl IntoIterator<Item = [Vec3; 3]>) -> Rgba
         }
         let normal = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
         let shade = (40.0 + 200.0 * normal.dot(eye_dir).abs()) as u8;
-        let x0 = s.iter().map(|p| p.x).fold(f32::MAX, f32::min).floor().max(0.0) as u32;
-        let x1 = s.iter().map(|p| p.x).fold(f32::MIN, f32::max).ceil().min(w as f32 - 1.0);
-        let y0 = s.iter().map(|p| p.y).fold(f32::MAX, f32::min).floor().max(0.0) as u32;
-        let y1 = s.iter().map(|p| p.y).fold(f32::MIN, f32::max).ceil().min(h as f32 - 1.0);
+        let x0 = s
+            .iter()
+            .map(|p| p.x)
+            .fold(f32::MAX, f32::min)
+            .floor()
+            .max(0.0) as u32;
+        let x1 = s
+            .iter()
+            .map(|p| p.x)
+            .fold(f32::MIN, f32::max)
+            .ceil()
+            .min(w as f32 - 1.0);
+        let y0 = s
+            .iter()
+            .map(|p| p.y)
+            .fold(f32::MAX, f32::min)
+            .floor()
+            .max(0.0) as u32;
+        let y1 = s
+            .iter()
+            .map(|p| p.y)
+            .fold(f32::MIN, f32::max)
+            .ceil()
+            .min(h as f32 - 1.0);
         if x1 < 0.0 || y1 < 0.0 {
             continue;
         }

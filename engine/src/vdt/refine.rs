@@ -168,7 +168,11 @@ impl Refiner {
     }
 
     /// One pass over the active nodes.
-    pub fn pass(&mut self, store: &mut dyn NodeStore, c: &Criterion) -> Result<PassStats, VdtError> {
+    pub fn pass(
+        &mut self,
+        store: &mut dyn NodeStore,
+        c: &Criterion,
+    ) -> Result<PassStats, VdtError> {
         let mut st = PassStats::default();
         // Youngest first: a split needs the node to be younger than its
         // neighbours, so splitting them in this order lets a refinement
@@ -253,7 +257,10 @@ impl Refiner {
             return Ok(false);
         };
         if l.node.leaf != v.node.leaf || r.node.leaf != l.node.leaf_end {
-            return Err(VdtError::Corrupt(format!("node {}: children's leaf intervals", v.id)));
+            return Err(VdtError::Corrupt(format!(
+                "node {}: children's leaf intervals",
+                v.id
+            )));
         }
         // Children first, so v's meta-node never looks unused in between.
         store.activated(l.id);
@@ -265,7 +272,11 @@ impl Refiner {
         for t in a.incident {
             let tri = self.tris.get_mut(&t).expect("incident triangle is active");
             let k = (0..3).find(|&k| tri.nodes[k] == v.id).expect("corner");
-            let to = if tri.leaves[k] >= r.node.leaf { r.id } else { l.id };
+            let to = if tri.leaves[k] >= r.node.leaf {
+                r.id
+            } else {
+                l.id
+            };
             tri.nodes[k] = to;
             self.active.get_mut(&to).expect("child").incident.push(t);
         }
@@ -372,12 +383,14 @@ impl Refiner {
     fn add_triangle(&mut self, t: u32, leaves: [u32; 3]) -> Result<(), VdtError> {
         let mut nodes = [NONE; 3];
         for k in 0..3 {
-            nodes[k] = self
-                .owner(leaves[k])
-                .ok_or_else(|| VdtError::Corrupt(format!("triangle {t}: leaf {} not covered", leaves[k])))?;
+            nodes[k] = self.owner(leaves[k]).ok_or_else(|| {
+                VdtError::Corrupt(format!("triangle {t}: leaf {} not covered", leaves[k]))
+            })?;
         }
         if nodes[0] == nodes[1] || nodes[1] == nodes[2] || nodes[0] == nodes[2] {
-            return Err(VdtError::Corrupt(format!("triangle {t} degenerate when added")));
+            return Err(VdtError::Corrupt(format!(
+                "triangle {t} degenerate when added"
+            )));
         }
         for n in nodes {
             self.active.get_mut(&n).expect("owner").incident.push(t);
@@ -395,7 +408,11 @@ impl NodeStore for super::VdTree {
     }
 
     fn permanent(&mut self) -> Result<Vec<(u32, [u32; 3])>, VdtError> {
-        Ok(self.permanent.iter().map(|&t| (t, self.triangles[t as usize])).collect())
+        Ok(self
+            .permanent
+            .iter()
+            .map(|&t| (t, self.triangles[t as usize]))
+            .collect())
     }
 
     fn children(&mut self, v: &Placed) -> Result<Option<[Placed; 2]>, VdtError> {

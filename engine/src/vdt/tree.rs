@@ -83,7 +83,10 @@ impl VdTree {
                         return Err(format!("node {i}: switch below child {c}'s"));
                     }
                 }
-                let (l, r) = (&self.nodes[nd.left as usize], &self.nodes[nd.right as usize]);
+                let (l, r) = (
+                    &self.nodes[nd.left as usize],
+                    &self.nodes[nd.right as usize],
+                );
                 if nd.leaf != l.leaf || l.leaf_end != r.leaf || r.leaf_end != nd.leaf_end {
                     return Err(format!("node {i}: leaf interval not its children's"));
                 }

@@ -131,7 +131,8 @@ impl VirtStore {
             return Err(VdtError::Corrupt(format!("node id {id} out of range")));
         }
         let mut b = [0u8; NODE_ENTRY as usize];
-        self.pager.read(self.parts[0] + u64::from(id) * NODE_ENTRY, &mut b)?;
+        self.pager
+            .read(self.parts[0] + u64::from(id) * NODE_ENTRY, &mut b)?;
         let nd: VdNode = bytemuck::pod_read_unaligned(&b);
         self.file.check_node(id, &nd)?;
         Ok(nd)
@@ -185,7 +186,9 @@ impl NodeStore for VirtStore {
         for t in a..b {
             let [id, x, y, z] = self.words::<4>(self.parts[3] + u64::from(t) * TRI_ENTRY)?;
             if [x, y, z].iter().any(|&c| c >= n) {
-                return Err(VdtError::Corrupt(format!("triangle {id}: corner out of range")));
+                return Err(VdtError::Corrupt(format!(
+                    "triangle {id}: corner out of range"
+                )));
             }
             out.push((id, [x, y, z]));
         }

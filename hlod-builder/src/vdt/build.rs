@@ -446,7 +446,13 @@ fn number_leaves_depth_first(
             }
         }
     }
-    let map = |v: u32| if (v as usize) < n { rank[v as usize] } else { v };
+    let map = |v: u32| {
+        if (v as usize) < n {
+            rank[v as usize]
+        } else {
+            v
+        }
+    };
     // Leaf roots were visited first, in id order: their new ids keep it.
     for r in roots.iter_mut() {
         *r = map(*r);
@@ -474,7 +480,10 @@ fn number_leaves_depth_first(
     }
     let at = |leaf: u32| DVec3::from(new_pos[leaf as usize].map(f64::from));
     for i in n..nodes.len() {
-        let (l, r) = (nodes[nodes[i].left as usize], nodes[nodes[i].right as usize]);
+        let (l, r) = (
+            nodes[nodes[i].left as usize],
+            nodes[nodes[i].right as usize],
+        );
         let p = at(l.leaf);
         let radius = (f64::from(l.radius)).max(p.distance(at(r.leaf)) + f64::from(r.radius));
         let nd = &mut nodes[i];

@@ -22,10 +22,7 @@ fn grid(n: u32) -> (Vec<[f32; 3]>, Vec<u32>) {
 
 /// Triangles as position triples (bit patterns), canonically rotated and
 /// sorted: leaf ids are renumbered depth-first, positions are not.
-fn sorted_tris(
-    t: impl IntoIterator<Item = [u32; 3]>,
-    pos: &[[f32; 3]],
-) -> Vec<[[u32; 3]; 3]> {
+fn sorted_tris(t: impl IntoIterator<Item = [u32; 3]>, pos: &[[f32; 3]]) -> Vec<[[u32; 3]; 3]> {
     let mut v: Vec<[[u32; 3]; 3]> = t
         .into_iter()
         .map(|c| c.map(|i| pos[i as usize].map(f32::to_bits)))
