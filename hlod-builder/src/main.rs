@@ -285,6 +285,7 @@ fn write_vdt(out: &std::path::Path, bytes: &[u8]) -> Result<()> {
         .tempfile_in(dir)
         .with_context(|| format!("cannot write in {}", dir.display()))?;
     tmp.write_all(bytes)?;
+    hlod_builder::scenegen::glb::set_public_mode(tmp.as_file())?;
     tmp.as_file().sync_all()?;
     tmp.persist(out)
         .map_err(|e| anyhow::anyhow!("{}: {}", out.display(), e.error))?;
@@ -341,12 +342,14 @@ fn vdt_report(
         let mnt_secs = t.elapsed().as_secs_f64();
         m.validate(&tree)
             .map_err(|e| anyhow::anyhow!("mesh {i}: invalid meta-nodes: {e}"))?;
-        // The binary tree as a flat file: node records, leaf positions,
-        // triangles, and the adjacency lists.
-        let tree_bytes = tree.nodes.len() * meta::NODE_BYTES
+        // The binary tree as a flat file: the `.vdt` file's flat layout
+        // (nodes, leaf positions, adjacency offsets and entries, roots).
+        let internal = tree.nodes.len() - tree.leaf_count();
+        let tree_bytes = tree.nodes.len() * std::mem::size_of::<hlod_builder::vdt::VdNode>()
             + tree.positions.len() * 12
-            + tree.triangles.len() * 12
-            + (tree.adjacent.iter().map(Vec::len).sum::<usize>() + tree.adjacent.len()) * 4;
+            + (internal + 1) * 4
+            + tree.adjacent.iter().map(Vec::len).sum::<usize>() * 16
+            + tree.roots.len() * 4;
         println!(
             "| {i} | {} | {} | {} | {} | {secs:.2} | {mnt_secs:.2} | {} | {} | {} | {} |",
             tree.triangles.len(),

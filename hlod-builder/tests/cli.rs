@@ -173,22 +173,38 @@ fn vdt_report_and_its_failures() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(text.contains("L = 6 levels for 4096-byte blocks"), "{text}");
+    assert!(text.contains("L = 5 levels for 4096-byte blocks"), "{text}");
     assert!(
         text.lines().filter(|l| l.starts_with("| ")).count() > 10,
         "{text}"
     );
-    assert_clean_failure(&hlod_build(&["vdt", "missing.glb"], d), "missing.glb", d, 0);
+    // -o writes the largest mesh's tree; it opens and loads back valid.
+    let out = hlod_build(&["vdt", &engine, "-o", "engine.vdt"], d);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let src = std::sync::Arc::new(engine::io::FileSource::open(&d.join("engine.vdt")).unwrap());
+    let f = engine::vdt::file::VdtFile::open(src).unwrap();
+    f.load_tree().unwrap();
+    assert!(f.header.meta_count > 0);
+    assert_eq!(
+        std::fs::read_dir(d).unwrap().count(),
+        1,
+        "no temporary left"
+    );
+    assert_clean_failure(&hlod_build(&["vdt", "missing.glb"], d), "missing.glb", d, 1);
     assert_clean_failure(
         &hlod_build(&["vdt", &engine, "--metric", "area"], d),
         "--metric",
         d,
-        0,
+        1,
     );
     assert_clean_failure(
         &hlod_build(&["vdt", &engine, "--block", "8"], d),
         "--block",
         d,
-        0,
+        1,
     );
 }

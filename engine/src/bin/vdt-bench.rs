@@ -20,7 +20,7 @@ use anyhow::{Context, Result, bail};
 use clap::Parser;
 use engine::camera::{PathKind, View, format_path, generate_path, read_path};
 use engine::disk::{DiskModel, open_scene_source};
-use engine::vdt::ext::ExtStore;
+use engine::vdt::ext::{ExtStore, Prefetch};
 use engine::vdt::file::VdtFile;
 use engine::vdt::raster::rasterise;
 use engine::vdt::refine::{Criterion, NodeStore, Refiner};
@@ -41,9 +41,9 @@ struct Args {
     path: Option<PathBuf>,
     #[arg(long, default_value_t = 600)]
     frames: usize,
-    /// Footprints: bytes (KiB/MiB suffixes) or percentages of the tree's
-    /// size (the flat layout the baseline pages), comma-separated.
-    #[arg(long, default_value = "25%,50%,150%")]
+    /// Footprints: bytes (KiB/MiB suffixes) or percentages of the whole
+    /// meta-node tree (in-core part plus DATA), comma-separated.
+    #[arg(long, default_value = "60%,80%,120%")]
     budgets: String,
     /// Error tolerance in pixels.
     #[arg(long, default_value_t = 1.0)]
@@ -60,6 +60,10 @@ struct Args {
     /// Compare every N-th Ext. frame with the full-resolution mesh (0: off).
     #[arg(long, default_value_t = 60)]
     psnr_every: usize,
+    /// Child meta-nodes kept prefetched: cut (those right below active
+    /// nodes) or paper (all children of active meta-nodes).
+    #[arg(long, default_value = "cut")]
+    prefetch: String,
     /// Output folder.
     #[arg(long, default_value = "vdt-bench-out")]
     out: PathBuf,
@@ -84,11 +88,17 @@ fn run(a: Args) -> Result<()> {
         bail!("--tolerance, --frames and the viewport must be positive");
     }
     let disk = DiskModel::parse(&a.disk).map_err(anyhow::Error::msg)?;
+    let policy = match a.prefetch.as_str() {
+        "cut" => Prefetch::BelowCut,
+        "paper" => Prefetch::AllChildren,
+        p => bail!("--prefetch {p:?}: use cut or paper"),
+    };
     let plain =
         open_scene_source(&a.file, None).with_context(|| format!("{}", a.file.display()))?;
     let file = Arc::new(VdtFile::open(plain).with_context(|| format!("{}", a.file.display()))?);
     let h = file.header;
     let tree_bytes = file.source.len() - h.virt_offset;
+    let whole_ext = file.core_bytes() + h.data_len;
     let (lo, hi) = (Vec3::from(h.bounds_min), Vec3::from(h.bounds_max));
     let poses = match &a.path {
         Some(p) => read_path(p)?,
@@ -110,7 +120,7 @@ fn run(a: Args) -> Result<()> {
     let budgets = a
         .budgets
         .split(',')
-        .map(|b| parse_footprint(b, tree_bytes))
+        .map(|b| parse_footprint(b, whole_ext))
         .collect::<Result<Vec<u64>>>()?;
     println!(
         "{}: {} leaves, {} nodes, {} meta-nodes (L = {}, largest {} B), DATA {:.2} MiB, tree {:.2} MiB; {} frames, ε {} px, disk {}",
@@ -150,8 +160,8 @@ fn run(a: Args) -> Result<()> {
     log(&mut csv, "incore", 0, &reference);
     let adapt = mean(&reference, |f| f64::from(f.adapt));
     let tris = mean(&reference, |f| f.tris as f64);
-    let mut table = format!(
-        "| footprint | fits | Virt. ms | Ext. ms | Virt./Ext. | Miss % | Ext. loads | Virt. faults | max resident |\n|---:|---|---:|---:|---:|---:|---:|---:|---:|\n"
+    let mut table = String::from(
+        "| footprint | fits | Virt. ms | Ext. ms | Virt./Ext. | Miss % | Ext. loads | Virt. faults | max resident |\n|---:|---|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     let mut psnr = String::from("budget,frame,psnr_db\n");
     for &b in &budgets {
@@ -167,7 +177,7 @@ fn run(a: Args) -> Result<()> {
             |_| Ok(()),
         )?;
         let faults = virt.pager.stats.faults;
-        let mut ext = ExtStore::start(f, b)?;
+        let mut ext = ExtStore::with_policy(f, b, policy)?;
         let mut samples = Vec::new();
         let e = walk_ext(
             &mut ext,
@@ -192,6 +202,7 @@ fn run(a: Args) -> Result<()> {
         if max_res > b {
             bail!("resident {max_res} B exceeded the footprint {b} B");
         }
+        eprintln!("ext at {b} B: {:?}", ext.stats);
         let _ = writeln!(
             table,
             "| {:.2} MiB | {} | {vm:.2} | {em:.2} | {:.2} | {:.2} | {} | {faults} | {:.2} MiB |",
@@ -309,6 +320,9 @@ fn walk_ext(
             resident: s.resident_bytes(),
             loaded: s.stats.loads - before,
         });
+        if k % 100 == 99 && std::env::var_os("VDT_DEBUG").is_some() {
+            eprintln!("frame {k}: {st:?}, occupancy {:?}", s.occupancy());
+        }
         if every > 0 && k % every == every - 1 {
             samples.push((k, tris.iter().map(|t| t.2).collect()));
         }

@@ -166,6 +166,26 @@ impl BufferManager {
             .count()
     }
 
+    /// Bytes of holders in use (usage > 0), only prefetched (in real memory,
+    /// usage 0) and flushed (on the free list).
+    pub fn occupancy(&self) -> [u64; 3] {
+        let mut o = [0u64; 3];
+        for (h, x) in self.holders.iter().enumerate() {
+            if x.meta == NONE {
+                continue;
+            }
+            let k = if self.free.contains(&(h as u32)) {
+                2
+            } else if x.usage > 0 {
+                0
+            } else {
+                1
+            };
+            o[k] += u64::from(x.bytes);
+        }
+        o
+    }
+
     /// Free-list holders, front first.
     pub fn free_list(&self) -> Vec<u32> {
         self.free.iter().rev().map(|(&h, _)| h).collect()

@@ -9,8 +9,10 @@
 //! holders — never exceed the footprint.
 //!
 //! When a meta-node gets its first active node it references its parent and
-//! child meta-nodes (prefetching them); when it loses its last one it drops
-//! those references. A split or collapse whose meta-node is missing is a
+//! (the paper's rule, [`Prefetch::AllChildren`]) its child meta-nodes,
+//! prefetching them; when it loses its last one it drops those references.
+//! By default ([`Prefetch::BelowCut`]) only the child meta-nodes right below
+//! active nodes are referenced. A split or collapse whose meta-node is missing is a
 //! miss and asks for it urgently. A meta-node that fails its checksum is
 //! never asked for again: that part of the tree stays at the level it has.
 
@@ -23,7 +25,7 @@ use glam::Vec3;
 use super::buffer::{BufferManager, Request, Urgency};
 use super::file::{VdtError, VdtFile};
 use super::meta::DecodedMeta;
-use super::refine::{NodeStore, Placed};
+use super::refine::{NodeStore, Placed, TriList};
 use super::{NONE, VdNode};
 
 /// A decoded meta-node in a holder.
@@ -41,6 +43,20 @@ struct Resident {
 }
 
 type Loaded = (u32, u32, Result<DecodedMeta, VdtError>);
+
+/// Which meta-nodes an active one keeps prefetched.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Prefetch {
+    /// The paper's rule: the parent and every child meta-node of each
+    /// active meta-node.
+    AllChildren,
+    /// The parent of each active meta-node, and only the child meta-nodes
+    /// right below active nodes (where the next split would go): collapse
+    /// trees are chain-like, so a meta-node has up to `2^(L-1)` small
+    /// children and most are far from the cut.
+    #[default]
+    BelowCut,
+}
 
 /// Counters of the store (cumulative).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -66,6 +82,7 @@ pub struct ExtStore {
     urgent_tx: Sender<(u32, u32)>,
     prefetch_tx: Sender<(u32, u32)>,
     done_rx: Receiver<Loaded>,
+    policy: Prefetch,
     pub stats: ExtStats,
 }
 
@@ -91,6 +108,15 @@ impl ExtStore {
     /// Starts the I/O thread and loads the root meta-nodes (waiting for
     /// them: the coarsest level must be there to draw anything).
     pub fn start(file: Arc<VdtFile>, budget: u64) -> Result<Self, VdtError> {
+        Self::with_policy(file, budget, Prefetch::default())
+    }
+
+    /// [`start`](Self::start) with a prefetch policy.
+    pub fn with_policy(
+        file: Arc<VdtFile>,
+        budget: u64,
+        policy: Prefetch,
+    ) -> Result<Self, VdtError> {
         let bytes = Self::buffer_for(&file, budget)?;
         // Every outstanding read holds a holder of at least 16 bytes.
         let k = (bytes / 16).clamp(16, 1 << 20) as usize;
@@ -110,6 +136,7 @@ impl ExtStore {
             urgent_tx,
             prefetch_tx,
             done_rx,
+            policy,
             stats: ExtStats::default(),
         };
         for m in 0..s.file.header.root_count {
@@ -135,6 +162,11 @@ impl ExtStore {
     /// Resident bytes: the in-core part plus the holders' meta-nodes.
     pub fn resident_bytes(&self) -> u64 {
         self.file.core_bytes() + self.buf.used()
+    }
+
+    /// Holder bytes in use, only prefetched, and flushed (second chance).
+    pub fn occupancy(&self) -> [u64; 3] {
+        self.buf.occupancy()
     }
 
     /// Takes in what the I/O thread finished (call once per frame).
@@ -294,13 +326,25 @@ impl ExtStore {
         Some(r.child_meta.get(&child).copied().unwrap_or(r.meta))
     }
 
+    /// The parent meta-node (or `NONE`) followed by every child meta-node.
     fn meta_links(&self, meta: u32) -> Vec<u32> {
         let rec = &self.file.mnt[meta as usize];
         let kids = rec.first_child..rec.first_child.saturating_add(rec.child_count);
-        let parent = (rec.parent != NONE).then_some(rec.parent);
-        parent
-            .into_iter()
+        std::iter::once(rec.parent)
             .chain(if rec.child_count > 0 { kids } else { 0..0 })
+            .collect()
+    }
+
+    /// The child meta-nodes holding the children of node `i` of holder `h`
+    /// (none when they are in the same meta-node, or it is a leaf).
+    fn below_cut(&self, h: u32, i: u32) -> Vec<u32> {
+        let Some(r) = self.residents.get(h as usize).and_then(Option::as_ref) else {
+            return Vec::new();
+        };
+        let nd = r.nodes[i as usize].1;
+        [nd.left, nd.right]
+            .iter()
+            .filter_map(|c| r.child_meta.get(c).copied())
             .collect()
     }
 }
@@ -328,7 +372,7 @@ impl NodeStore for ExtStore {
         Ok(out)
     }
 
-    fn permanent(&mut self) -> Result<Vec<(u32, [u32; 3])>, VdtError> {
+    fn permanent(&mut self) -> Result<TriList, VdtError> {
         Ok(self.file.permanent.clone())
     }
 
@@ -384,7 +428,7 @@ impl NodeStore for ExtStore {
         Ok(None)
     }
 
-    fn adjacent(&mut self, v: u32) -> Result<Option<Vec<(u32, [u32; 3])>>, VdtError> {
+    fn adjacent(&mut self, v: u32) -> Result<Option<TriList>, VdtError> {
         let Some((h, i)) = self.lookup(v) else {
             return Ok(None);
         };
@@ -397,7 +441,7 @@ impl NodeStore for ExtStore {
     }
 
     fn activated(&mut self, v: u32) {
-        let Some((h, _)) = self.lookup(v) else {
+        let Some((h, i)) = self.lookup(v) else {
             return;
         };
         let meta = self.meta_of(h);
@@ -407,23 +451,40 @@ impl NodeStore for ExtStore {
         }
         let first = self.buf.holder(h).usage == 0;
         self.buf.use_inc(h);
-        if first {
-            for m in self.meta_links(self.meta_of(h)) {
-                self.want(m, Urgency::Prefetch);
-            }
+        let below = self.below_cut(h, i);
+        let links = match self.policy {
+            Prefetch::AllChildren if first => self.meta_links(meta),
+            Prefetch::BelowCut if first => self.meta_links(meta)[..1].to_vec(),
+            _ => Vec::new(),
+        };
+        let extra = if self.policy == Prefetch::BelowCut {
+            below
+        } else {
+            Vec::new()
+        };
+        for m in links.into_iter().filter(|&m| m != NONE).chain(extra) {
+            self.want(m, Urgency::Prefetch);
         }
     }
 
     fn deactivated(&mut self, v: u32) {
-        let Some(&(h, _)) = self.node_at.get(&v) else {
+        let Some(&(h, i)) = self.node_at.get(&v) else {
             return;
         };
         let meta = self.meta_of(h);
+        let below = self.below_cut(h, i);
         self.buf.use_dec(h);
-        if self.buf.holder(h).usage == 0 {
-            for m in self.meta_links(meta) {
-                self.buf.ref_dec(m);
-            }
+        let mut links = if self.buf.holder(h).usage == 0 {
+            self.meta_links(meta)
+        } else {
+            Vec::new()
+        };
+        if self.policy == Prefetch::BelowCut {
+            links.truncate(1);
+            links.extend(below);
+        }
+        for m in links.into_iter().filter(|&m| m != NONE) {
+            self.buf.ref_dec(m);
         }
     }
 }
@@ -432,21 +493,39 @@ fn io_gone() -> VdtError {
     VdtError::Io(std::io::Error::other("the meta-node I/O thread stopped"))
 }
 
+/// Reads meta-nodes: every urgent read first, then the pending prefetches
+/// in elevator order (the next one at or after where the head stopped, so
+/// a meta-node's children — contiguous in DATA — come without seeks).
 fn io_thread(
     file: &VdtFile,
     urgent: &Receiver<(u32, u32)>,
     prefetch: &Receiver<(u32, u32)>,
     done: &Sender<Loaded>,
 ) {
+    let mut pending: Vec<(u32, u32)> = Vec::new();
+    let mut head = 0u64;
+    let offset = |j: &(u32, u32)| file.mnt[j.0 as usize].offset;
     loop {
-        let job = match urgent.try_recv() {
-            Ok(j) => j,
-            Err(_) => crossbeam_channel::select! {
-                recv(urgent) -> j => match j { Ok(j) => j, Err(_) => return },
-                recv(prefetch) -> j => match j { Ok(j) => j, Err(_) => return },
-            },
+        let job = if let Ok(j) = urgent.try_recv() {
+            j
+        } else {
+            pending.extend(prefetch.try_iter());
+            if pending.is_empty() {
+                crossbeam_channel::select! {
+                    recv(urgent) -> j => match j { Ok(j) => j, Err(_) => return },
+                    recv(prefetch) -> j => match j { Ok(j) => j, Err(_) => return },
+                }
+            } else {
+                let k = (0..pending.len())
+                    .filter(|&k| offset(&pending[k]) >= head)
+                    .min_by_key(|&k| offset(&pending[k]))
+                    .or_else(|| (0..pending.len()).min_by_key(|&k| offset(&pending[k])))
+                    .expect("pending is not empty");
+                pending.swap_remove(k)
+            }
         };
         let res = file.read_meta(job.0);
+        head = offset(&job) + u64::from(file.mnt[job.0 as usize].len);
         if done.send((job.0, job.1, res)).is_err() {
             return;
         }

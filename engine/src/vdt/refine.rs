@@ -40,19 +40,22 @@ pub struct Placed {
     pub pos: Vec3,
 }
 
+/// Triangles as `(triangle id, leaf corners)`.
+pub type TriList = Vec<(u32, [u32; 3])>;
+
 /// Where the tree's nodes come from (in core, paged, or meta-node buffers).
 /// `None` answers are misses: the store may start fetching what was asked.
 pub trait NodeStore {
     /// The roots with their positions (the coarsest cut).
     fn roots(&mut self) -> Result<Vec<Placed>, VdtError>;
     /// The triangles no collapse removes: `(id, leaves)`.
-    fn permanent(&mut self) -> Result<Vec<(u32, [u32; 3])>, VdtError>;
+    fn permanent(&mut self) -> Result<TriList, VdtError>;
     /// The children of `v` (for a split), with their positions.
     fn children(&mut self, v: &Placed) -> Result<Option<[Placed; 2]>, VdtError>;
     /// The parent record of `v` (for a collapse).
     fn parent(&mut self, v: &Placed) -> Result<Option<(u32, VdNode)>, VdtError>;
     /// The triangles `v`'s split adds (and its children's collapse removes).
-    fn adjacent(&mut self, v: u32) -> Result<Option<Vec<(u32, [u32; 3])>>, VdtError>;
+    fn adjacent(&mut self, v: u32) -> Result<Option<TriList>, VdtError>;
     /// `v` joined or left the active nodes.
     fn activated(&mut self, v: u32);
     fn deactivated(&mut self, v: u32);
@@ -407,7 +410,7 @@ impl NodeStore for super::VdTree {
         Ok(self.roots.iter().map(|&r| self.placed(r)).collect())
     }
 
-    fn permanent(&mut self) -> Result<Vec<(u32, [u32; 3])>, VdtError> {
+    fn permanent(&mut self) -> Result<TriList, VdtError> {
         Ok(self
             .permanent
             .iter()
@@ -423,7 +426,7 @@ impl NodeStore for super::VdTree {
         Ok(Some((v.node.parent, self.nodes[v.node.parent as usize])))
     }
 
-    fn adjacent(&mut self, v: u32) -> Result<Option<Vec<(u32, [u32; 3])>>, VdtError> {
+    fn adjacent(&mut self, v: u32) -> Result<Option<TriList>, VdtError> {
         let n = self.leaf_count();
         Ok(Some(
             self.adjacent[v as usize - n]

@@ -11,7 +11,7 @@ use glam::Vec3;
 use lru::LruCache;
 
 use super::file::{NODE_ENTRY, TRI_ENTRY, VdtError, VdtFile};
-use super::refine::{NodeStore, Placed};
+use super::refine::{NodeStore, Placed, TriList};
 use super::{NONE, VdNode};
 
 /// Page size of the baseline.
@@ -159,7 +159,7 @@ impl NodeStore for VirtStore {
             .collect()
     }
 
-    fn permanent(&mut self) -> Result<Vec<(u32, [u32; 3])>, VdtError> {
+    fn permanent(&mut self) -> Result<TriList, VdtError> {
         Ok(self.file.permanent.clone())
     }
 
@@ -173,7 +173,7 @@ impl NodeStore for VirtStore {
         Ok(Some((v.node.parent, self.node(v.node.parent)?)))
     }
 
-    fn adjacent(&mut self, v: u32) -> Result<Option<Vec<(u32, [u32; 3])>>, VdtError> {
+    fn adjacent(&mut self, v: u32) -> Result<Option<TriList>, VdtError> {
         let n = self.file.header.leaf_count;
         if v < n || v == NONE {
             return Err(VdtError::Corrupt(format!("adjacency of leaf {v}")));
