@@ -215,21 +215,18 @@ impl ExtStore {
 
     fn resident(&self, meta: u32, d: DecodedMeta) -> Result<Resident, VdtError> {
         let rec = &self.file.mnt[meta as usize];
-        let ids: HashSet<u32> = d.nodes.iter().map(|r| r.id).collect();
         let mut child_meta = HashMap::new();
-        let mut next = rec.first_child;
         let mut adj = Vec::with_capacity(d.nodes.len());
         let mut at = 0usize;
+        let kids = rec.first_child..rec.first_child.saturating_add(rec.child_count);
         for r in &d.nodes {
             let nd = r.node;
-            if nd.left != NONE && !ids.contains(&nd.left) {
-                for c in [nd.left, nd.right] {
-                    if next >= rec.first_child.saturating_add(rec.child_count) {
-                        return Err(VdtError::Corrupt(format!("meta-node {meta}: child links")));
-                    }
-                    child_meta.insert(c, next);
-                    next += 1;
+            if r.child_meta != NONE {
+                if !kids.contains(&r.child_meta) || nd.left == NONE {
+                    return Err(VdtError::Corrupt(format!("meta-node {meta}: child links")));
                 }
+                child_meta.insert(nd.left, r.child_meta);
+                child_meta.insert(nd.right, r.child_meta);
             }
             let end = at + r.adjacent as usize;
             adj.push(at..end);
@@ -358,16 +355,13 @@ impl NodeStore for ExtStore {
                 .buf
                 .ready(m)
                 .ok_or_else(|| VdtError::Corrupt(format!("root meta-node {m} unreadable")))?;
-            let r = self
-                .residents
-                .get(h as usize)
-                .and_then(Option::as_ref)
-                .expect("ready holder");
-            let (id, node) = r.nodes[0];
-            let pos = self
-                .position(h, node.leaf)
-                .ok_or_else(|| VdtError::Corrupt(format!("root {id}: no position")))?;
-            out.push(Placed { id, node, pos });
+            let r = self.residents[h as usize].as_ref().expect("ready holder");
+            for &(id, node) in r.nodes.iter().filter(|x| x.1.parent == NONE) {
+                let pos = self
+                    .position(h, node.leaf)
+                    .ok_or_else(|| VdtError::Corrupt(format!("root {id}: no position")))?;
+                out.push(Placed { id, node, pos });
+            }
         }
         Ok(out)
     }

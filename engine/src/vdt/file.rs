@@ -39,6 +39,7 @@ pub struct VdtHeader {
     pub node_count: u32,
     pub triangle_count: u32,
     pub meta_count: u32,
+    /// Root meta-nodes (`0..root_count`).
     pub root_count: u32,
     pub levels: u32,
     pub permanent_count: u32,
@@ -52,7 +53,8 @@ pub struct VdtHeader {
     pub adjacency_count: u64,
     pub bounds_min: [f32; 3],
     pub bounds_max: [f32; 3],
-    pub reserved: u32,
+    /// Roots of the forest (ids listed at the end of the flat layout).
+    pub tree_roots: u32,
     pub header_crc: u32,
 }
 const _: () = assert!(std::mem::size_of::<VdtHeader>() == 112);
@@ -131,7 +133,7 @@ pub fn encode(tree: &VdTree, levels: u32) -> Vec<u8> {
         adjacency_count: tree.adjacent.iter().map(Vec::len).sum::<usize>() as u64,
         bounds_min: lo,
         bounds_max: hi,
-        reserved: 0,
+        tree_roots: tree.roots.len() as u32,
         header_crc: 0,
     };
     h.header_crc = crc32fast::hash(&bytemuck::bytes_of(&h)[..108]);
@@ -189,11 +191,12 @@ impl VdtFile {
             + n * 12
             + (internal + 1) * 4
             + h.adjacency_count * TRI_ENTRY
-            + u64::from(h.root_count) * 4;
+            + u64::from(h.tree_roots) * 4;
         if h.data_offset != 112 + mnt_len + perm_len
             || h.virt_offset != h.data_offset + h.data_len
             || h.virt_offset + virt_len != source.len()
             || h.root_count > h.meta_count
+            || h.root_count > h.tree_roots
             || nodes >= u64::from(u32::MAX)
         {
             return Err(corrupt("section sizes disagree with the file length"));

@@ -35,6 +35,9 @@ pub struct MetaTree {
     pub metas: Vec<MetaNode>,
     /// Meta-node of every tree node.
     pub node_meta: Vec<u32>,
+    /// Meta-node of every node's children when they are not in its own
+    /// (`NONE` otherwise, and for leaves).
+    pub child_meta: Vec<u32>,
     /// Root meta-nodes (those of the tree's roots).
     pub roots: Vec<u32>,
 }
@@ -54,24 +57,55 @@ pub fn levels_for_block(block_bytes: usize) -> u32 {
     l
 }
 
-/// Blocks `tree` into meta-nodes of `levels` levels (at least 1).
+/// Blocks `tree` into meta-nodes of `levels` levels (at least 2: a pair of
+/// siblings must fit).
 ///
 /// A meta-node holds up to `2^L - 1` nodes: for a complete binary tree
-/// exactly `L` levels. Collapse trees are far from complete (long chains),
-/// so the nodes are taken breadth-first from the meta-node's top until the
-/// capacity is reached, siblings always together: the children of a node
-/// are both inside or both the tops of child meta-nodes.
+/// exactly `L` levels. Collapse trees are far from complete (long chains
+/// with small side subtrees), so
+/// - the nodes are taken breadth-first from the meta-node's tops until the
+///   capacity is reached, siblings always together (the children of a node
+///   are both inside, or both below in one child meta-node);
+/// - the sibling pairs left below are packed, in order, into child
+///   meta-nodes: consecutive pairs share one while their whole subtrees fit
+///   in it, so small side subtrees do not each cost a disk read. Roots are
+///   packed the same way into the root meta-nodes.
 pub fn block(tree: &VdTree, levels: u32) -> MetaTree {
-    let levels = levels.clamp(1, 20);
+    let levels = levels.clamp(2, 20);
     let cap = (1usize << levels) - 1;
     let n = tree.leaf_count();
+    // Nodes in the subtree of v (a full binary tree over its leaves).
+    let size = |v: u32| {
+        let nd = &tree.nodes[v as usize];
+        2 * (nd.leaf_end - nd.leaf) as usize - 1
+    };
+    let pack = |units: Vec<Vec<u32>>| -> Vec<Vec<Vec<u32>>> {
+        let mut groups: Vec<Vec<Vec<u32>>> = Vec::new();
+        let mut total = 0;
+        for u in units {
+            let s: usize = u.iter().map(|&v| size(v)).sum();
+            match groups.last_mut() {
+                Some(g) if total + s <= cap => g.push(u),
+                _ => {
+                    groups.push(vec![u]);
+                    total = 0;
+                }
+            }
+            total += s;
+        }
+        groups
+    };
     let mut node_meta = vec![NONE; tree.nodes.len()];
+    let mut child_meta = vec![NONE; tree.nodes.len()];
     let mut metas: Vec<MetaNode> = Vec::new();
-    // Breadth-first over meta-nodes: (top node, parent meta).
-    let mut queue: std::collections::VecDeque<(u32, u32)> =
-        tree.roots.iter().map(|&r| (r, NONE)).collect();
+    // Breadth-first over meta-nodes: (tops, parent meta).
+    let mut queue: std::collections::VecDeque<(Vec<u32>, u32)> =
+        pack(tree.roots.iter().map(|&r| vec![r]).collect())
+            .into_iter()
+            .map(|g| (g.concat(), NONE))
+            .collect();
     let mut roots = Vec::new();
-    while let Some((top, parent)) = queue.pop_front() {
+    while let Some((tops, parent)) = queue.pop_front() {
         let id = metas.len() as u32;
         if parent == NONE {
             roots.push(id);
@@ -79,10 +113,10 @@ pub fn block(tree: &VdTree, levels: u32) -> MetaTree {
             metas[parent as usize].children.push(id);
         }
         let mut nodes = Vec::new();
-        let mut below = Vec::new();
-        let mut inside = std::collections::VecDeque::from([top]);
+        let mut below: Vec<(u32, Vec<u32>)> = Vec::new();
         // Nodes taken or promised (queued inside).
-        let mut taken = 1;
+        let mut taken = tops.len();
+        let mut inside = std::collections::VecDeque::from(tops);
         while let Some(v) = inside.pop_front() {
             nodes.push(v);
             node_meta[v as usize] = id;
@@ -92,9 +126,21 @@ pub fn block(tree: &VdTree, levels: u32) -> MetaTree {
                     inside.extend([nd.left, nd.right]);
                     taken += 2;
                 } else {
-                    below.extend([nd.left, nd.right]);
+                    below.push((v, vec![nd.left, nd.right]));
                 }
             }
+        }
+        // Ids the child meta-nodes will get: after everything queued.
+        let mut next = id + 1 + queue.len() as u32;
+        let owners: Vec<u32> = below.iter().map(|b| b.0).collect();
+        let mut k = 0;
+        for g in pack(below.into_iter().map(|b| b.1).collect()) {
+            for _ in 0..g.len() {
+                child_meta[owners[k] as usize] = next;
+                k += 1;
+            }
+            queue.push_back((g.concat(), id));
+            next += 1;
         }
         let triangles = nodes
             .iter()
@@ -106,7 +152,7 @@ pub fn block(tree: &VdTree, levels: u32) -> MetaTree {
             .iter()
             .filter(|&&v| {
                 let l = tree.nodes[v as usize].left;
-                l == NONE || !nodes.contains(&l)
+                l == NONE || node_meta[l as usize] != id
             })
             .map(|&v| tree.nodes[v as usize].leaf)
             .collect();
@@ -119,12 +165,12 @@ pub fn block(tree: &VdTree, levels: u32) -> MetaTree {
             triangles,
             leaves,
         });
-        queue.extend(below.into_iter().map(|c| (c, id)));
     }
     MetaTree {
         levels,
         metas,
         node_meta,
+        child_meta,
         roots,
     }
 }
@@ -157,11 +203,15 @@ impl MetaTree {
                     return Err(format!("node {v}: meta index disagrees"));
                 }
                 let nd = &tree.nodes[v as usize];
-                if nd.left != NONE
-                    && (self.node_meta[nd.left as usize] == i)
-                        != (self.node_meta[nd.right as usize] == i)
-                {
-                    return Err(format!("node {v}: children split across meta-nodes"));
+                if nd.left != NONE {
+                    let (a, b) = (
+                        self.node_meta[nd.left as usize],
+                        self.node_meta[nd.right as usize],
+                    );
+                    let want = if a == i { NONE } else { a };
+                    if a != b || self.child_meta[v as usize] != want {
+                        return Err(format!("node {v}: children split or misfiled"));
+                    }
                 }
                 let p = nd.parent;
                 let pm = if p == NONE {
@@ -200,17 +250,19 @@ impl MetaTree {
     }
 }
 
-/// A node as stored in a meta-node payload: its id, the node itself, and
-/// how many of the meta-node's local triangles are its adjacent ones (the
-/// local list is the nodes' lists in node order).
+/// A node as stored in a meta-node payload: its id, the node itself, how
+/// many of the meta-node's local triangles are its adjacent ones (the
+/// local list is the nodes' lists in node order), and the meta-node of its
+/// children when they are not here.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct VdNodeRecord {
     pub id: u32,
     pub node: VdNode,
     pub adjacent: u32,
+    pub child_meta: u32,
 }
-const _: () = assert!(std::mem::size_of::<VdNodeRecord>() == 44);
+const _: () = assert!(std::mem::size_of::<VdNodeRecord>() == 48);
 
 /// An MNT record: where a meta-node's payload is and its tree links.
 #[repr(C)]
@@ -260,6 +312,7 @@ pub fn encode(tree: &VdTree, meta: &MetaTree) -> MetaFiles {
                 } else {
                     tree.adjacent[v as usize - tree.leaf_count()].len() as u32
                 },
+                child_meta: meta.child_meta[v as usize],
             };
             data.extend_from_slice(bytemuck::bytes_of(&r));
         }

