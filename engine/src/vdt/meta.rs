@@ -131,16 +131,14 @@ pub fn block(tree: &VdTree, levels: u32) -> MetaTree {
             }
         }
         // Ids the child meta-nodes will get: after everything queued.
-        let mut next = id + 1 + queue.len() as u32;
-        let owners: Vec<u32> = below.iter().map(|b| b.0).collect();
-        let mut k = 0;
-        for g in pack(below.into_iter().map(|b| b.1).collect()) {
-            for _ in 0..g.len() {
-                child_meta[owners[k] as usize] = next;
-                k += 1;
+        let first = id + 1 + queue.len() as u32;
+        let groups = pack(below.iter().map(|b| b.1.clone()).collect());
+        let mut owners = below.iter().map(|b| b.0);
+        for (next, g) in (first..).zip(groups) {
+            for v in owners.by_ref().take(g.len()) {
+                child_meta[v as usize] = next;
             }
             queue.push_back((g.concat(), id));
-            next += 1;
         }
         let triangles = nodes
             .iter()
