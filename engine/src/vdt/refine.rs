@@ -83,6 +83,10 @@ struct Active {
     node: VdNode,
     pos: Vec3,
     incident: Vec<u32>,
+    /// The parent's record once known (from the split that made this node,
+    /// or fetched once for a collapse test): the per-frame collapse tests
+    /// then need no store access.
+    parent: Option<VdNode>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -136,7 +140,7 @@ impl Refiner {
     pub fn new(store: &mut dyn NodeStore) -> Result<Self, VdtError> {
         let mut r = Self::default();
         for p in store.roots()? {
-            r.insert(p, Vec::new());
+            r.insert(p, Vec::new(), None);
             store.activated(p.id);
         }
         for (t, leaves) in store.permanent()? {
@@ -270,8 +274,8 @@ impl Refiner {
         store.activated(r.id);
         store.deactivated(v.id);
         let a = self.remove(v.id);
-        self.insert(l, Vec::new());
-        self.insert(r, Vec::new());
+        self.insert(l, Vec::new(), Some(v.node));
+        self.insert(r, Vec::new(), Some(v.node));
         for t in a.incident {
             let tri = self.tris.get_mut(&t).expect("incident triangle is active");
             let k = (0..3).find(|&k| tri.nodes[k] == v.id).expect("corner");
@@ -297,9 +301,17 @@ impl Refiner {
         v: &Placed,
         st: &mut PassStats,
     ) -> Result<(), VdtError> {
-        let Some((pid, p)) = store.parent(v)? else {
-            st.misses += 1;
-            return Ok(());
+        let pid = v.node.parent;
+        let p = match self.active[&v.id].parent {
+            Some(p) => p,
+            None => {
+                let Some((_, p)) = store.parent(v)? else {
+                    st.misses += 1;
+                    return Ok(());
+                };
+                self.active.get_mut(&v.id).expect("active").parent = Some(p);
+                p
+            }
         };
         let sib = if p.left == v.id { p.right } else { p.left };
         let Some(left) = self.active.get(&p.left) else {
@@ -354,12 +366,13 @@ impl Refiner {
                 pos: ppos,
             },
             incident,
+            None,
         );
         st.collapses += 1;
         Ok(())
     }
 
-    fn insert(&mut self, p: Placed, incident: Vec<u32>) {
+    fn insert(&mut self, p: Placed, incident: Vec<u32>, parent: Option<VdNode>) {
         self.cut.insert(p.node.leaf, p.id);
         self.active.insert(
             p.id,
@@ -367,6 +380,7 @@ impl Refiner {
                 node: p.node,
                 pos: p.pos,
                 incident,
+                parent,
             },
         );
     }
