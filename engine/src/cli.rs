@@ -23,6 +23,12 @@ pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
 /// Parses a memory footprint: bytes (with B/KB/MB/GB/KiB/MiB/GiB) or a
 /// percentage of `data_bytes` (`2.5%`).
 pub fn parse_budget(s: &str, data_bytes: u64) -> anyhow::Result<u64> {
+    parse_budget_upto(s, data_bytes, 100.0)
+}
+
+/// [`parse_budget`] allowing percentages up to `max_percent` (a footprint
+/// larger than the data, to show a case where everything fits).
+pub fn parse_budget_upto(s: &str, data_bytes: u64, max_percent: f64) -> anyhow::Result<u64> {
     use anyhow::{Context, bail};
     let t = s.trim();
     if let Some(p) = t.strip_suffix('%') {
@@ -30,8 +36,8 @@ pub fn parse_budget(s: &str, data_bytes: u64) -> anyhow::Result<u64> {
             .trim()
             .parse()
             .with_context(|| format!("--budget {s:?}"))?;
-        if !(v > 0.0 && v <= 100.0) {
-            bail!("--budget {s:?}: a percentage must be in (0, 100]");
+        if !(v > 0.0 && v <= max_percent) {
+            bail!("--budget {s:?}: a percentage must be in (0, {max_percent}]");
         }
         return Ok((data_bytes as f64 * v / 100.0) as u64);
     }

@@ -344,25 +344,25 @@ fn vdt_report(
             .map_err(|e| anyhow::anyhow!("mesh {i}: invalid meta-nodes: {e}"))?;
         // The binary tree as a flat file: the `.vdt` file's flat layout
         // (nodes, leaf positions, adjacency offsets and entries, roots).
-        let internal = tree.nodes.len() - tree.leaf_count();
-        let tree_bytes = tree.nodes.len() * std::mem::size_of::<hlod_builder::vdt::VdNode>()
-            + tree.positions.len() * 12
-            + (internal + 1) * 4
-            + tree.adjacent.iter().map(Vec::len).sum::<usize>() * 16
-            + tree.roots.len() * 4;
+        let tree_bytes = engine::vdt::file::flat_len(
+            tree.leaf_count() as u64,
+            tree.nodes.len() as u64,
+            tree.adjacent.iter().map(Vec::len).sum::<usize>() as u64,
+            tree.roots.len() as u64,
+        );
         println!(
             "| {i} | {} | {} | {} | {} | {secs:.2} | {mnt_secs:.2} | {} | {} | {} | {} |",
             tree.triangles.len(),
             tree.leaf_count(),
             tree.nodes.len(),
             tree.roots.len(),
-            human_bytes(tree_bytes as u64),
+            human_bytes(tree_bytes),
             m.metas.len(),
             human_bytes(files.data.len() as u64),
             human_bytes((files.mnt.len() * std::mem::size_of::<meta::MntRecord>()) as u64)
         );
         if let (Some(out), true) = (output, Some(i) == largest) {
-            write_vdt(out, &engine::vdt::file::encode(&tree, levels))?;
+            write_vdt(out, &engine::vdt::file::encode_blocked(&tree, &m, &files))?;
             println!("wrote {} (mesh {i})", out.display());
         }
     }

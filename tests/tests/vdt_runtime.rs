@@ -85,13 +85,24 @@ fn flips(t: &VdTree, r: &Refiner) -> usize {
         .count()
 }
 
-/// Passes (polling the store's I/O) until four quiet passes in a row.
+/// A refiner from the roots, run until quiet (see `refine_until_quiet`).
 fn run_until_quiet<S: NodeStore>(
     store: &mut S,
     c: &Criterion,
-    mut poll: impl FnMut(&mut S),
+    poll: impl FnMut(&mut S),
 ) -> Refiner {
     let mut r = Refiner::new(store).unwrap();
+    refine_until_quiet(&mut r, store, c, poll);
+    r
+}
+
+/// Passes (polling the store's I/O) until four quiet passes in a row.
+fn refine_until_quiet<S: NodeStore>(
+    r: &mut Refiner,
+    store: &mut S,
+    c: &Criterion,
+    mut poll: impl FnMut(&mut S),
+) {
     let mut quiet = 0;
     for _ in 0..4000 {
         poll(store);
@@ -108,7 +119,6 @@ fn run_until_quiet<S: NodeStore>(
             std::thread::sleep(std::time::Duration::from_micros(300));
         }
     }
-    r
 }
 
 fn ext_poll(e: &mut ExtStore) {
@@ -238,16 +248,7 @@ fn paged_stores_follow_the_in_core_refinement_and_keep_the_footprint() {
             ext.stats
         );
         if budget > file.header.data_len {
-            let mut q = 0;
-            for _ in 0..2000 {
-                ext.poll().unwrap();
-                let s = r.pass(&mut ext, &last).unwrap();
-                q = if s.adapt() + s.misses == 0 { q + 1 } else { 0 };
-                if q > 3 {
-                    break;
-                }
-                std::thread::sleep(std::time::Duration::from_micros(300));
-            }
+            refine_until_quiet(&mut r, &mut ext, &last, |e| e.poll().unwrap());
             assert!(
                 r.active_ids().eq(want.iter().copied()),
                 "ext did not catch up"

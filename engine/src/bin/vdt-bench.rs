@@ -120,7 +120,7 @@ fn run(a: Args) -> Result<()> {
     let budgets = a
         .budgets
         .split(',')
-        .map(|b| parse_footprint(b, whole_ext))
+        .map(|b| engine::cli::parse_budget_upto(b, whole_ext, 10_000.0))
         .collect::<Result<Vec<u64>>>()?;
     println!(
         "{}: {} leaves, {} nodes, {} meta-nodes (L = {}, largest {} B), DATA {:.2} MiB, tree {:.2} MiB; {} frames, ε {} px, disk {}",
@@ -154,8 +154,8 @@ fn run(a: Args) -> Result<()> {
         &views,
         a.tolerance,
         Duration::ZERO,
-        |_| 0,
-        |_| Ok(()),
+        0,
+        &mut Vec::new(),
     )?;
     log(&mut csv, "incore", 0, &reference);
     let adapt = mean(&reference, |f| f64::from(f.adapt));
@@ -168,18 +168,11 @@ fn run(a: Args) -> Result<()> {
         let src = open_scene_source(&a.file, Some(disk))?;
         let f = Arc::new(VdtFile::open(src)?);
         let mut virt = VirtStore::start(f.clone(), b)?;
-        let v = walk(
-            &mut virt,
-            &views,
-            a.tolerance,
-            period,
-            |s| s.resident_bytes(),
-            |_| Ok(()),
-        )?;
+        let v = walk(&mut virt, &views, a.tolerance, period, 0, &mut Vec::new())?;
         let faults = virt.pager.stats.faults;
         let mut ext = ExtStore::with_policy(f, b, policy)?;
         let mut samples = Vec::new();
-        let e = walk_ext(
+        let e = walk(
             &mut ext,
             &views,
             a.tolerance,
@@ -237,21 +230,6 @@ fn run(a: Args) -> Result<()> {
     Ok(())
 }
 
-fn parse_footprint(s: &str, tree_bytes: u64) -> Result<u64> {
-    let t = s.trim();
-    if let Some(p) = t.strip_suffix('%') {
-        let v: f64 = p
-            .trim()
-            .parse()
-            .with_context(|| format!("footprint {s:?}"))?;
-        if !(v > 0.0 && v <= 10_000.0) {
-            bail!("footprint {s:?}: percentage out of range");
-        }
-        return Ok((tree_bytes as f64 * v / 100.0) as u64);
-    }
-    engine::cli::parse_budget(t, tree_bytes)
-}
-
 fn mean(f: &[Frame], g: impl Fn(&Frame) -> f64) -> f64 {
     f.iter().map(g).sum::<f64>() / f.len().max(1) as f64
 }
@@ -266,42 +244,49 @@ fn log(csv: &mut String, store: &str, budget: u64, frames: &[Frame]) {
     }
 }
 
-/// One pass per frame; the frame's work is the pass and the triangle list.
-fn walk<S: NodeStore>(
-    s: &mut S,
-    views: &[View],
-    tol: f32,
-    period: Duration,
-    resident: impl Fn(&S) -> u64,
-    mut poll: impl FnMut(&mut S) -> Result<()>,
-) -> Result<Vec<Frame>> {
-    let mut r = Refiner::new(s)?;
-    let mut out = Vec::with_capacity(views.len());
-    for v in views {
-        let t0 = Instant::now();
-        poll(s)?;
-        let st = r.pass(s, &Criterion::new(*v, tol))?;
-        let tris = r.triangles();
-        let ms = t0.elapsed().as_secs_f64() * 1e3;
-        out.push(Frame {
-            ms,
-            adapt: st.adapt(),
-            misses: st.misses,
-            tris: tris.len(),
-            resident: resident(s),
-            loaded: 0,
-        });
-        if let Some(rest) = period.checked_sub(t0.elapsed()) {
-            std::thread::sleep(rest);
-        }
+/// What the bench reads from a store besides refining with it.
+trait Benched: NodeStore {
+    /// Takes in finished reads (the external-memory store).
+    fn poll(&mut self) -> Result<()> {
+        Ok(())
     }
-    Ok(out)
+    fn resident(&self) -> u64;
+    /// Meta-nodes read so far.
+    fn loads(&self) -> u64 {
+        0
+    }
+}
+
+impl Benched for engine::vdt::VdTree {
+    fn resident(&self) -> u64 {
+        0
+    }
+}
+
+impl Benched for VirtStore {
+    fn resident(&self) -> u64 {
+        self.resident_bytes()
+    }
+}
+
+impl Benched for ExtStore {
+    fn poll(&mut self) -> Result<()> {
+        Ok(ExtStore::poll(self)?)
+    }
+    fn resident(&self) -> u64 {
+        self.resident_bytes()
+    }
+    fn loads(&self) -> u64 {
+        self.stats.loads
+    }
 }
 
 type Sample = (usize, Vec<[Vec3; 3]>);
 
-fn walk_ext(
-    s: &mut ExtStore,
+/// One pass per frame; the frame's work is the poll, the pass and the
+/// triangle list. Every `every`-th frame's triangles go to `samples`.
+fn walk<S: Benched>(
+    s: &mut S,
     views: &[View],
     tol: f32,
     period: Duration,
@@ -312,7 +297,7 @@ fn walk_ext(
     let mut out = Vec::with_capacity(views.len());
     for (k, v) in views.iter().enumerate() {
         let t0 = Instant::now();
-        let before = s.stats.loads;
+        let before = s.loads();
         s.poll()?;
         let st = r.pass(s, &Criterion::new(*v, tol))?;
         let tris = r.triangles();
@@ -322,12 +307,9 @@ fn walk_ext(
             adapt: st.adapt(),
             misses: st.misses,
             tris: tris.len(),
-            resident: s.resident_bytes(),
-            loaded: s.stats.loads - before,
+            resident: s.resident(),
+            loaded: s.loads() - before,
         });
-        if k % 100 == 99 && std::env::var_os("VDT_DEBUG").is_some() {
-            eprintln!("frame {k}: {st:?}, occupancy {:?}", s.occupancy());
-        }
         if every > 0 && k % every == every - 1 {
             samples.push((k, tris.iter().map(|t| t.2).collect()));
         }

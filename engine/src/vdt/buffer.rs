@@ -166,26 +166,6 @@ impl BufferManager {
             .count()
     }
 
-    /// Bytes of holders in use (usage > 0), only prefetched (in real memory,
-    /// usage 0) and flushed (on the free list).
-    pub fn occupancy(&self) -> [u64; 3] {
-        let mut o = [0u64; 3];
-        for (h, x) in self.holders.iter().enumerate() {
-            if x.meta == NONE {
-                continue;
-            }
-            let k = if self.free.contains(&(h as u32)) {
-                2
-            } else if x.usage > 0 {
-                0
-            } else {
-                1
-            };
-            o[k] += u64::from(x.bytes);
-        }
-        o
-    }
-
     /// Free-list holders, front first.
     pub fn free_list(&self) -> Vec<u32> {
         self.free.iter().rev().map(|(&h, _)| h).collect()
@@ -208,7 +188,8 @@ impl BufferManager {
         // Plan the evictions first; give up without touching anything.
         let mut room = self.capacity - self.used;
         let mut victims = Vec::new();
-        for h in self.free_list() {
+        // Front of the free list first (the cache iterates newest first).
+        for (&h, ()) in self.free.iter().rev() {
             if room >= need {
                 break;
             }

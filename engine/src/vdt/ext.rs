@@ -164,11 +164,6 @@ impl ExtStore {
         self.file.core_bytes() + self.buf.used()
     }
 
-    /// Holder bytes in use, only prefetched, and flushed (second chance).
-    pub fn occupancy(&self) -> [u64; 3] {
-        self.buf.occupancy()
-    }
-
     /// Takes in what the I/O thread finished (call once per frame).
     pub fn poll(&mut self) -> Result<(), VdtError> {
         loop {
@@ -323,13 +318,24 @@ impl ExtStore {
         Some(r.child_meta.get(&child).copied().unwrap_or(r.meta))
     }
 
-    /// The parent meta-node (or `NONE`) followed by every child meta-node.
-    fn meta_links(&self, meta: u32) -> Vec<u32> {
-        let rec = &self.file.mnt[meta as usize];
-        let kids = rec.first_child..rec.first_child.saturating_add(rec.child_count);
-        std::iter::once(rec.parent)
-            .chain(if rec.child_count > 0 { kids } else { 0..0 })
-            .collect()
+    /// The meta-nodes node `i` of holder `h` references while active: when
+    /// it is the first (or last) active node of its meta-node, the parent
+    /// meta-node and, under the paper's rule, every child meta-node; under
+    /// [`Prefetch::BelowCut`], the child meta-nodes holding its own children.
+    fn references(&self, h: u32, i: u32, whole_meta: bool) -> Vec<u32> {
+        let rec = &self.file.mnt[self.meta_of(h) as usize];
+        let mut out = Vec::new();
+        if whole_meta && rec.parent != NONE {
+            out.push(rec.parent);
+        }
+        match self.policy {
+            Prefetch::AllChildren if whole_meta => {
+                out.extend(rec.first_child..rec.first_child.saturating_add(rec.child_count));
+            }
+            Prefetch::AllChildren => {}
+            Prefetch::BelowCut => out.extend(self.below_cut(h, i)),
+        }
+        out
     }
 
     /// The child meta-nodes holding the children of node `i` of holder `h`
@@ -445,18 +451,7 @@ impl NodeStore for ExtStore {
         }
         let first = self.buf.holder(h).usage == 0;
         self.buf.use_inc(h);
-        let below = self.below_cut(h, i);
-        let links = match self.policy {
-            Prefetch::AllChildren if first => self.meta_links(meta),
-            Prefetch::BelowCut if first => self.meta_links(meta)[..1].to_vec(),
-            _ => Vec::new(),
-        };
-        let extra = if self.policy == Prefetch::BelowCut {
-            below
-        } else {
-            Vec::new()
-        };
-        for m in links.into_iter().filter(|&m| m != NONE).chain(extra) {
+        for m in self.references(h, i, first) {
             self.want(m, Urgency::Prefetch);
         }
     }
@@ -465,19 +460,11 @@ impl NodeStore for ExtStore {
         let Some(&(h, i)) = self.node_at.get(&v) else {
             return;
         };
-        let meta = self.meta_of(h);
-        let below = self.below_cut(h, i);
+        // Counted before the use drops: the holder's links stay readable.
+        let last = self.buf.holder(h).usage == 1;
+        let refs = self.references(h, i, last);
         self.buf.use_dec(h);
-        let mut links = if self.buf.holder(h).usage == 0 {
-            self.meta_links(meta)
-        } else {
-            Vec::new()
-        };
-        if self.policy == Prefetch::BelowCut {
-            links.truncate(1);
-            links.extend(below);
-        }
-        for m in links.into_iter().filter(|&m| m != NONE) {
+        for m in refs {
             self.buf.ref_dec(m);
         }
     }

@@ -64,6 +64,12 @@ pub const TRI_ENTRY: u64 = 16;
 /// Bytes of one node in the flat layout.
 pub const NODE_ENTRY: u64 = std::mem::size_of::<VdNode>() as u64;
 
+/// Bytes of the flat layout of a tree with `leaves` leaves, `nodes` nodes
+/// (`nodes >= leaves`), `adjacency` adjacency entries and `roots` roots.
+pub fn flat_len(leaves: u64, nodes: u64, adjacency: u64, roots: u64) -> u64 {
+    nodes * NODE_ENTRY + leaves * 12 + (nodes - leaves + 1) * 4 + adjacency * TRI_ENTRY + roots * 4
+}
+
 /// What can go wrong reading a `.vdt` file or a part of it.
 #[derive(Debug, thiserror::Error)]
 pub enum VdtError {
@@ -83,6 +89,11 @@ pub enum VdtError {
 pub fn encode(tree: &VdTree, levels: u32) -> Vec<u8> {
     let mt = meta::block(tree, levels);
     let files = meta::encode(tree, &mt);
+    encode_blocked(tree, &mt, &files)
+}
+
+/// Serialises `tree` with a blocking already made (`mt`, encoded as `files`).
+pub fn encode_blocked(tree: &VdTree, mt: &meta::MetaTree, files: &meta::MetaFiles) -> Vec<u8> {
     let tri = |t: u32| -> [u8; 16] {
         let c = tree.triangles[t as usize];
         bytemuck::cast([t, c[0], c[1], c[2]])
@@ -184,14 +195,10 @@ impl VdtFile {
         let metas = u64::from(h.meta_count);
         let mnt_len = metas * 32;
         let perm_len = u64::from(h.permanent_count) * TRI_ENTRY;
-        let internal = nodes
-            .checked_sub(n)
-            .ok_or_else(|| corrupt("fewer nodes than leaves"))?;
-        let virt_len = nodes * NODE_ENTRY
-            + n * 12
-            + (internal + 1) * 4
-            + h.adjacency_count * TRI_ENTRY
-            + u64::from(h.tree_roots) * 4;
+        if nodes < n {
+            return Err(corrupt("fewer nodes than leaves"));
+        }
+        let virt_len = flat_len(n, nodes, h.adjacency_count, u64::from(h.tree_roots));
         if h.data_offset != 112 + mnt_len + perm_len
             || h.virt_offset != h.data_offset + h.data_len
             || h.virt_offset + virt_len != source.len()
