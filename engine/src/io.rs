@@ -103,6 +103,78 @@ impl ByteSource for MemSource {
     }
 }
 
+/// A window `base..base + len` of another source, whose first bytes may be
+/// held in memory already: an object embedded in a scene file (a
+/// view-dependence tree, whose in-core part P_I has read as its payload).
+#[derive(Clone)]
+pub struct WindowSource {
+    inner: Arc<dyn ByteSource>,
+    base: u64,
+    len: u64,
+    prefix: Arc<[u8]>,
+}
+
+impl std::fmt::Debug for WindowSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WindowSource")
+            .field("base", &self.base)
+            .field("len", &self.len)
+            .field("prefix", &self.prefix.len())
+            .finish()
+    }
+}
+
+impl WindowSource {
+    /// The bytes `base..base + len` of `inner`, the first `prefix.len()` of
+    /// them served from `prefix`. Fails when the window is not inside
+    /// `inner` or the prefix is longer than the window.
+    pub fn new(
+        inner: Arc<dyn ByteSource>,
+        base: u64,
+        len: u64,
+        prefix: Arc<[u8]>,
+    ) -> io::Result<Self> {
+        if base.checked_add(len).is_none_or(|e| e > inner.len()) || prefix.len() as u64 > len {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!(
+                    "window {base}+{len} outside a source of {} bytes",
+                    inner.len()
+                ),
+            ));
+        }
+        Ok(Self {
+            inner,
+            base,
+            len,
+            prefix,
+        })
+    }
+}
+
+impl ByteSource for WindowSource {
+    fn len(&self) -> u64 {
+        self.len
+    }
+
+    fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
+        check_range(offset, buf.len(), self.len)?;
+        let p = self.prefix.len() as u64;
+        let mut done = 0usize;
+        if offset < p {
+            let n = ((p - offset) as usize).min(buf.len());
+            let at = offset as usize;
+            buf[..n].copy_from_slice(&self.prefix[at..at + n]);
+            done = n;
+        }
+        if done < buf.len() {
+            let at = offset + done as u64;
+            self.inner.read_at(self.base + at, &mut buf[done..])?;
+        }
+        Ok(())
+    }
+}
+
 fn check_range(offset: u64, len: usize, total: u64) -> io::Result<()> {
     match offset.checked_add(len as u64) {
         Some(end) if end <= total => Ok(()),
@@ -128,5 +200,19 @@ mod tests {
             io::ErrorKind::UnexpectedEof
         );
         assert!(src.read_at(u64::MAX, &mut buf).is_err());
+    }
+
+    #[test]
+    fn window_reads_prefix_then_inner() {
+        let inner: Arc<dyn ByteSource> = Arc::new(MemSource::new((0u8..32).collect::<Vec<_>>()));
+        let w = WindowSource::new(inner.clone(), 8, 16, Arc::from(vec![100u8, 101, 102])).unwrap();
+        let mut buf = [0u8; 6];
+        w.read_at(1, &mut buf).unwrap();
+        assert_eq!(buf, [101, 102, 11, 12, 13, 14]);
+        w.read_at(10, &mut buf).unwrap();
+        assert_eq!(buf, [18, 19, 20, 21, 22, 23]);
+        assert!(w.read_at(11, &mut buf).is_err());
+        assert!(WindowSource::new(inner.clone(), 20, 16, Arc::from(vec![])).is_err());
+        assert!(WindowSource::new(inner, 0, 2, Arc::from(vec![0u8; 3])).is_err());
     }
 }

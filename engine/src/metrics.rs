@@ -44,16 +44,28 @@ pub struct FrameMetrics {
     pub gpu_bytes: u64,
     /// Prefetch candidates queued in P_I's bins at the end of Stage II.
     pub prefetch_queue: u32,
+    /// View-dependence trees drawn this frame, their splits + collapses
+    /// (*Adapt*), active triangles, misses (a wanted split or collapse whose
+    /// meta-node was absent), meta-nodes read since the previous frame, the
+    /// bytes their stores hold (in-core part + place holders, within the
+    /// footprint reserved for them) and the refinement time.
+    pub vdt_trees: u32,
+    pub adapt: u32,
+    pub vdt_tris: u64,
+    pub vdt_misses: u32,
+    pub metas_loaded: u32,
+    pub vdt_bytes: u64,
+    pub vdt_ms: f64,
 }
 
 /// CSV header matching [`FrameMetrics::csv_row`].
-pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue";
+pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms";
 
 impl FrameMetrics {
     /// One CSV line (no newline).
     pub fn csv_row(&self) -> String {
         format!(
-            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{}",
+            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{:.3}",
             self.frame,
             self.mode,
             self.frame_ms,
@@ -80,7 +92,14 @@ impl FrameMetrics {
             self.stage2_io_ms,
             self.prefetch_io_ms,
             self.gpu_bytes,
-            self.prefetch_queue
+            self.prefetch_queue,
+            self.vdt_trees,
+            self.adapt,
+            self.vdt_tris,
+            self.vdt_misses,
+            self.metas_loaded,
+            self.vdt_bytes,
+            self.vdt_ms
         )
     }
 }
@@ -112,6 +131,17 @@ pub struct Summary {
     pub budget_bytes: u64,
     pub substituted: u64,
     pub mean_front_ms: f64,
+    /// Frames that drew a view-dependence tree, and per such frame: mean
+    /// Adapt, mean active tree triangles, Miss % (misses / (Adapt +
+    /// misses)), mean refinement ms; meta-nodes read and the most bytes the
+    /// tree stores held.
+    pub vdt_frames: usize,
+    pub mean_adapt: f64,
+    pub mean_vdt_tris: f64,
+    pub vdt_miss_pct: f64,
+    pub mean_vdt_ms: f64,
+    pub metas_loaded: u64,
+    pub max_vdt_bytes: u64,
 }
 
 /// `q`-quantile (0..=1) of `v` by the nearest-rank method.
@@ -147,7 +177,49 @@ pub fn summarize(frames: &[FrameMetrics], period_ms: f64) -> Summary {
         budget_bytes: frames.first().map_or(0, |f| f.budget_bytes),
         substituted: frames.iter().map(|f| u64::from(f.substituted)).sum(),
         mean_front_ms: frames.iter().map(|f| f.front_ms).sum::<f64>() / n,
+        ..vdt_summary(frames)
     }
+}
+
+fn vdt_summary(frames: &[FrameMetrics]) -> Summary {
+    let with: Vec<&FrameMetrics> = frames.iter().filter(|f| f.vdt_trees > 0).collect();
+    let k = with.len().max(1) as f64;
+    let adapt: u64 = with.iter().map(|f| u64::from(f.adapt)).sum();
+    let misses: u64 = with.iter().map(|f| u64::from(f.vdt_misses)).sum();
+    Summary {
+        vdt_frames: with.len(),
+        mean_adapt: adapt as f64 / k,
+        mean_vdt_tris: with.iter().map(|f| f.vdt_tris as f64).sum::<f64>() / k,
+        vdt_miss_pct: 100.0 * misses as f64 / (adapt + misses).max(1) as f64,
+        mean_vdt_ms: with.iter().map(|f| f.vdt_ms).sum::<f64>() / k,
+        metas_loaded: frames.iter().map(|f| u64::from(f.metas_loaded)).sum(),
+        max_vdt_bytes: frames.iter().map(|f| f.vdt_bytes).max().unwrap_or(0),
+        ..Summary::default()
+    }
+}
+
+/// A Markdown table of the summaries' view-dependence-tree figures.
+pub fn vdt_table(rows: &[Summary]) -> String {
+    let mut s = String::from(
+        "| mode | budget MiB | frames with trees | Adapt | tree tris | Miss % | refine ms | meta-nodes read | max tree store MiB |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "| {} | {:.2} | {} | {:.1} | {:.0} | {:.2} | {:.3} | {} | {:.2} |",
+            r.mode,
+            mib(r.budget_bytes),
+            r.vdt_frames,
+            r.mean_adapt,
+            r.mean_vdt_tris,
+            r.vdt_miss_pct,
+            r.mean_vdt_ms,
+            r.metas_loaded,
+            mib(r.max_vdt_bytes)
+        );
+    }
+    s
 }
 
 /// A Markdown table of summaries.

@@ -229,6 +229,12 @@ impl Skeleton {
                     Some(RepKind::Hlod) if n.is_leaf() => {
                         return Err(rep_err("HLOD on a leaf".into()));
                     }
+                    Some(RepKind::Vdt) if !n.is_leaf() || i + 1 != n.rep_count || i == 0 => {
+                        return Err(rep_err(
+                            "a view-dependence tree must be a leaf's finest rep after a static LOD"
+                                .into(),
+                        ));
+                    }
                     None => return Err(rep_err(format!("unknown kind {}", r.kind))),
                     _ => {}
                 }
@@ -238,22 +244,32 @@ impl Skeleton {
                 if r.tri_count == 0 || r.vertex_count == 0 {
                     return Err(rep_err("empty rep".into()));
                 }
-                let expect =
-                    RepMesh::encoded_len(r.vertex_count as usize, r.tri_count as usize * 3);
-                if r.len as usize != expect {
-                    return Err(rep_err(format!(
-                        "length {} but counts need {expect}",
-                        r.len
-                    )));
+                if r.is_vdt() {
+                    if r.len < 112 || r.aux == 0 {
+                        return Err(rep_err(format!(
+                            "view-dependence tree of {}+{} bytes is too short",
+                            r.len, r.aux
+                        )));
+                    }
+                } else {
+                    let expect =
+                        RepMesh::encoded_len(r.vertex_count as usize, r.tri_count as usize * 3);
+                    if r.len as usize != expect || r.aux != 0 {
+                        return Err(rep_err(format!(
+                            "length {}+{} but counts need {expect}",
+                            r.len, r.aux
+                        )));
+                    }
                 }
-                let end = r.offset.checked_add(u64::from(r.len));
+                let end = r.offset.checked_add(r.extent());
                 if !r.offset.is_multiple_of(BLOCK)
                     || r.offset < data_start
                     || end.is_none_or(|e| e > data_end)
                 {
                     return Err(rep_err(format!(
                         "byte range {}+{} not block-aligned inside {data_start}..{data_end}",
-                        r.offset, r.len
+                        r.offset,
+                        r.extent()
                     )));
                 }
                 if !finite_box(r.bbox_min, r.bbox_max) {
@@ -265,7 +281,7 @@ impl Skeleton {
         by_offset.sort_by_key(|&r| self.reps[r as usize].offset);
         for w in by_offset.windows(2) {
             let (a, b) = (&self.reps[w[0] as usize], &self.reps[w[1] as usize]);
-            if a.offset + u64::from(a.len) > b.offset {
+            if a.offset + a.extent() > b.offset {
                 return Err(ValidationError::Overlap { a: w[0], b: w[1] });
             }
         }

@@ -92,7 +92,7 @@ pub fn build(rep_counts: &[u32], children: &[u32]) -> (Vec<u8>, Skeleton) {
                 len: loc.len,
                 tri_count: mesh.tri_count() as u32,
                 vertex_count: mesh.vertices.len() as u32,
-                reserved: 0,
+                aux: 0,
             });
         }
     }

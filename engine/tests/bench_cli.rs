@@ -39,7 +39,7 @@ fn write_scene(path: &Path) {
             len: loc.len,
             tri_count: 1,
             vertex_count: 3,
-            reserved: 0,
+            aux: 0,
         });
     }
     let node = |i: usize, parent: u32, depth: u32, first_child: u32, child_count: u32| NodeRecord {

@@ -40,6 +40,13 @@ pub struct BuildParams {
     pub hlod_tris: usize,
     /// HLOD target as a fraction of the merged children's coarsest reps.
     pub hlod_ratio: f32,
+    /// Objects of at least this many triangles get a view-dependence tree as
+    /// their finest rep instead of being chunked (0: none).
+    pub vdt_tris: usize,
+    /// How many of the coarsest static LODs such an object keeps; the tree
+    /// replaces the finer ones (a deep tree pages well: its root meta-nodes
+    /// stay small).
+    pub vdt_keep: usize,
 }
 
 impl Default for BuildParams {
@@ -51,6 +58,8 @@ impl Default for BuildParams {
             chunk_tris: 65536,
             hlod_tris: 8192,
             hlod_ratio: 0.5,
+            vdt_tris: 0,
+            vdt_keep: 2,
         }
     }
 }
@@ -81,6 +90,14 @@ impl BuildParams {
         if !(self.hlod_ratio > 0.0 && self.hlod_ratio <= 1.0) {
             return bad("--hlod-ratio must be in (0, 1]");
         }
+        if self.vdt_tris != 0 && self.vdt_tris <= self.leaf_tris {
+            return bad(
+                "--vdt-tris must exceed --leaf-tris (a tree's object is a leaf of its own)",
+            );
+        }
+        if self.vdt_keep == 0 || self.vdt_keep >= l.max_levels {
+            return bad("--vdt-keep must be in 1..--max-lods");
+        }
         Ok(())
     }
 }
@@ -108,6 +125,8 @@ pub struct BuildStats {
     pub nodes: u64,
     pub leaves: u64,
     pub chunked_objects: u64,
+    /// Objects whose finest rep is a view-dependence tree.
+    pub vdt_objects: u64,
     pub height: u32,
     pub reps: u64,
     /// Source triangles after instancing.
@@ -130,6 +149,11 @@ enum Item {
         object: u32,
     },
     Chunk {
+        mesh: Mesh,
+        object: u32,
+    },
+    /// A large object in world space, whose finest rep is a view-dependence tree.
+    Tree {
         mesh: Mesh,
         object: u32,
     },
@@ -199,7 +223,17 @@ pub fn build_scene<W: Write + std::io::Seek>(
         let mesh = imported.meshes[inst.mesh]
             .as_ref()
             .expect("instances refer to usable meshes");
-        if mesh.tri_count() > params.chunk_tris {
+        if params.vdt_tris > 0 && mesh.tri_count() >= params.vdt_tris {
+            let world = mesh.transformed(&inst.transform);
+            cluster_items.push(ClusterItem {
+                bounds: world.bounds(),
+                tris: world.tri_count(),
+            });
+            items.push(Item::Tree {
+                mesh: world,
+                object: obj as u32,
+            });
+        } else if mesh.tri_count() > params.chunk_tris {
             stats.chunked_objects += 1;
             for chunk in mesh
                 .transformed(&inst.transform)
@@ -247,7 +281,7 @@ pub fn build_scene<W: Write + std::io::Seek>(
         .filter(|n| n.items.len() == 1)
         .filter_map(|n| match &items[n.items[0] as usize] {
             Item::Instance { mesh, .. } => Some(*mesh),
-            Item::Chunk { .. } => None,
+            Item::Chunk { .. } | Item::Tree { .. } => None,
         })
         .collect();
     placed.sort_unstable();
@@ -291,11 +325,11 @@ pub fn build_scene<W: Write + std::io::Seek>(
         .collect();
     stats.leaves = leaves.len() as u64;
     for batch in leaves.chunks(64) {
-        let made: Vec<Vec<crate::lod::Level>> = batch
+        let made: Vec<LeafGeometry> = batch
             .par_iter()
             .map(|&i| leaf_levels(&tree[i].items, &items, imported, params, &chain_of))
             .collect();
-        for (&i, levels) in batch.iter().zip(made) {
+        for (&i, (levels, vdt)) in batch.iter().zip(made) {
             let objects: Vec<u32> = tree[i]
                 .items
                 .iter()
@@ -311,7 +345,11 @@ pub fn build_scene<W: Write + std::io::Seek>(
             } else {
                 n.flags |= NodeRecord::FLAG_MERGED;
             }
-            let (recs, c) = write_chain(&mut writer, i as u32, levels, RepKind::Lod, 0.0)?;
+            let (mut recs, c) = write_chain(&mut writer, i as u32, levels, RepKind::Lod, 0.0)?;
+            if let Some(t) = vdt {
+                stats.vdt_objects += 1;
+                recs.push(crate::vdt::write_rep(&mut writer, i as u32, &recs, &t)?);
+            }
             finish_node(&mut nodes[i], &recs, &c.mesh, &[]);
             node_reps[i] = recs;
             coarse[i] = Some(c);
@@ -398,18 +436,42 @@ pub fn build_scene<W: Write + std::io::Seek>(
     stats.output_triangles = skeleton.total_triangles();
     stats.skeleton_bytes = (std::mem::size_of_val(skeleton.nodes.as_slice())
         + std::mem::size_of_val(skeleton.reps.as_slice())) as u64;
-    stats.data_bytes = skeleton.reps.iter().map(|r| u64::from(r.len)).sum();
+    stats.data_bytes = skeleton.reps.iter().map(RepRecord::extent).sum();
     Ok(stats)
 }
 
 fn item_object(item: &Item) -> u32 {
     match item {
-        Item::Instance { object, .. } | Item::Chunk { object, .. } => *object,
+        Item::Instance { object, .. } | Item::Chunk { object, .. } | Item::Tree { object, .. } => {
+            *object
+        }
     }
 }
 
-/// The LOD chain of a leaf, in world space, coarsest first.
+/// A leaf's static LODs (coarsest first) and its view-dependence tree.
+type LeafGeometry = (Vec<crate::lod::Level>, Option<crate::vdt::TreeRep>);
+
+/// The LOD chain of a leaf, in world space, coarsest first, and the tree of
+/// a large object.
 fn leaf_levels<'a>(
+    leaf_items: &[u32],
+    items: &[Item],
+    imported: &Imported,
+    params: &BuildParams,
+    chain_of: &(dyn Fn(usize) -> Option<&'a Vec<crate::lod::Level>> + Sync),
+) -> LeafGeometry {
+    if let [k] = leaf_items
+        && let Item::Tree { mesh, .. } = &items[*k as usize]
+    {
+        return crate::vdt::tree_levels(mesh, &params.lod, params.vdt_keep);
+    }
+    (
+        static_levels(leaf_items, items, imported, params, chain_of),
+        None,
+    )
+}
+
+fn static_levels<'a>(
     leaf_items: &[u32],
     items: &[Item],
     imported: &Imported,
@@ -448,6 +510,7 @@ fn leaf_levels<'a>(
                 };
                 return lod_chain(mesh, &lod);
             }
+            Item::Tree { mesh, .. } => return lod_chain(mesh, &params.lod),
         }
     }
     let parts: Vec<Mesh> = leaf_items
@@ -459,7 +522,7 @@ fn leaf_levels<'a>(
                 .as_ref()
                 .expect("usable")
                 .transformed(transform),
-            Item::Chunk { mesh, .. } => mesh.clone(),
+            Item::Chunk { mesh, .. } | Item::Tree { mesh, .. } => mesh.clone(),
         })
         .collect();
     lod_chain(&Mesh::merge(&parts), &params.lod)
@@ -505,7 +568,7 @@ fn write_chain<W: Write + std::io::Seek>(
             len: loc.len,
             tri_count: m.tri_count() as u32,
             vertex_count: m.vertex_count() as u32,
-            reserved: 0,
+            aux: 0,
         };
     }
     let first = levels.into_iter().next().expect("at least one level");

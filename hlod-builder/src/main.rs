@@ -78,6 +78,14 @@ struct BuildArgs {
     /// Most LODs per object, the original included.
     #[arg(long, default_value_t = 6)]
     max_lods: usize,
+    /// Objects of at least this many triangles get a view-dependence tree as
+    /// their finest rep (paged by meta-nodes, refined per frame) instead of
+    /// being split into chunks (0: none).
+    #[arg(long, default_value_t = 0)]
+    vdt_tris: usize,
+    /// How many of the coarsest static LODs such an object keeps below its tree.
+    #[arg(long, default_value_t = 2)]
+    vdt_keep: usize,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
@@ -210,6 +218,8 @@ fn build(a: BuildArgs) -> Result<()> {
         chunk_tris: a.chunk_tris,
         hlod_tris: a.hlod_tris,
         hlod_ratio: a.hlod_ratio,
+        vdt_tris: a.vdt_tris,
+        vdt_keep: a.vdt_keep,
     };
     let show = !a.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr());
     let stats = build_file(&a.input, &a.output, &params, show)?;
@@ -225,9 +235,10 @@ fn build(a: BuildArgs) -> Result<()> {
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
     println!(
-        "wrote {} ({} objects split into chunks, {} degenerate triangles dropped)",
+        "wrote {} ({} objects split into chunks, {} with a view-dependence tree, {} degenerate triangles dropped)",
         a.output.display(),
         stats.chunked_objects,
+        stats.vdt_objects,
         stats.input_triangles - stats.usable_triangles
     );
     Ok(())
@@ -246,12 +257,16 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
         .iter()
         .filter(|r| r.kind == engine::RepKind::Lod as u16)
         .count();
+    let trees: Vec<u32> = (0..s.reps.len() as u32)
+        .filter(|&r| s.reps[r as usize].is_vdt())
+        .collect();
     let root = s.root().expect("validated scenes have a root");
     println!(
-        "format v{}, {} LODs + {} HLODs, bounds {:?} .. {:?}, root error {:.4}",
+        "format v{}, {} LODs + {} HLODs + {} view-dependence trees, bounds {:?} .. {:?}, root error {:.4}",
         scene.header().version,
         lods,
-        s.reps.len() - lods,
+        s.reps.len() - lods - trees.len(),
+        trees.len(),
         root.bbox_min,
         root.bbox_max,
         s.reps
@@ -261,6 +276,28 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
     println!(
         "validate(): ok (structure, error monotonicity, boxes, byte ranges, checksums of header and skeleton)"
     );
+    for &r in &trees {
+        let rec = &s.reps[r as usize];
+        let core = scene
+            .read_rep_bytes(r)
+            .with_context(|| format!("{}: rep {r}", file.display()))?;
+        let h: engine::vdt::file::VdtHeader = bytemuck::pod_read_unaligned(&core[..112]);
+        println!(
+            "  tree rep {r} (node {}): {} vertices, {} triangles, error {:.5}; L = {}, {} meta-nodes ({} roots, largest {}), MNT {}, permanent {}, DATA {}, flat tree {}",
+            rec.node,
+            h.leaf_count,
+            h.triangle_count,
+            rec.error,
+            h.levels,
+            h.meta_count,
+            h.root_count,
+            human_bytes(u64::from(h.max_meta_bytes)),
+            human_bytes(u64::from(h.meta_count) * 32),
+            human_bytes(u64::from(h.permanent_count) * 16),
+            human_bytes(h.data_len),
+            human_bytes(rec.extent() - h.virt_offset),
+        );
+    }
     if verify {
         scene
             .verify_all_reps()
@@ -332,7 +369,14 @@ fn vdt_report(
     for (i, m) in imp.meshes.iter().enumerate() {
         let Some(m) = m else { continue };
         let t = std::time::Instant::now();
-        let tree = build_tree(&m.positions, &m.indices, &VdtParams { metric });
+        let tree = build_tree(
+            &m.positions,
+            &m.indices,
+            &VdtParams {
+                metric,
+                max_switch: None,
+            },
+        );
         let secs = t.elapsed().as_secs_f64();
         tree.validate()
             .map_err(|e| anyhow::anyhow!("mesh {i}: invalid tree: {e}"))?;

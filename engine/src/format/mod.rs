@@ -19,7 +19,7 @@ mod reader;
 mod rep;
 mod writer;
 
-pub use reader::{SceneFile, SceneMeta, check_rep_crc};
+pub use reader::{SceneFile, SceneMeta, check_rep_crc, check_vdt_record};
 pub use rep::{PackedVertex, REP_MAGIC, RepHeader, RepMesh, quantize_unit_normal};
 pub use writer::SceneWriter;
 
@@ -117,6 +117,12 @@ pub enum RepKind {
     Lod = 0,
     /// A hierarchical LOD of an interior node and all its descendants.
     Hlod = 1,
+    /// A view-dependence tree (El-Sana & Chiang): the finest rep of a large
+    /// object's leaf, refined per frame. Its payload range holds an embedded
+    /// `.vdt` file; `len` covers only the in-core part (header, MNT,
+    /// permanent triangles, checksummed by `checksum`) and `aux` the paged
+    /// part after it; `error` is the tree's coarsest switch value.
+    Vdt = 2,
 }
 
 impl RepKind {
@@ -125,6 +131,7 @@ impl RepKind {
         match v {
             0 => Some(Self::Lod),
             1 => Some(Self::Hlod),
+            2 => Some(Self::Vdt),
             _ => None,
         }
     }
@@ -151,7 +158,9 @@ pub struct RepRecord {
     pub len: u32,
     pub tri_count: u32,
     pub vertex_count: u32,
-    pub reserved: u32,
+    /// [`RepKind::Vdt`]: bytes of the embedded tree after `len` (its
+    /// meta-nodes and flat layout, paged at run time); 0 for other kinds.
+    pub aux: u32,
 }
 const _: () = assert!(size_of::<RepRecord>() == 64);
 
@@ -159,6 +168,17 @@ impl RepRecord {
     /// The decoded kind, if the tag is known.
     pub fn rep_kind(&self) -> Option<RepKind> {
         RepKind::from_u16(self.kind)
+    }
+
+    /// Whether this rep is a view-dependence tree.
+    pub fn is_vdt(&self) -> bool {
+        self.kind == RepKind::Vdt as u16
+    }
+
+    /// Bytes the rep occupies in the data section (`len`, plus `aux` for a
+    /// view-dependence tree).
+    pub fn extent(&self) -> u64 {
+        u64::from(self.len) + u64::from(self.aux)
     }
 }
 

@@ -2,10 +2,12 @@
 
 use std::mem::size_of;
 use std::path::Path;
+use std::sync::Arc;
 
 use super::{BLOCK, FileHeader, FormatError, MAGIC, NodeRecord, RepMesh, RepRecord, VERSION};
-use crate::io::{ByteSource, FileSource};
+use crate::io::{ByteSource, FileSource, MemSource};
 use crate::skeleton::{RepId, Skeleton};
+use crate::vdt::file::VdtFile;
 
 /// Scene-level facts stored in the header besides the skeleton.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -96,16 +98,49 @@ impl<S: ByteSource> SceneFile<S> {
         Ok(buf)
     }
 
-    /// Reads and decodes rep `rep`.
+    /// Reads and decodes rep `rep` (a static mesh: not a view-dependence tree).
     pub fn read_rep(&self, rep: RepId) -> Result<RepMesh, FormatError> {
+        if self.record(rep)?.is_vdt() {
+            return Err(FormatError::BadRep {
+                rep,
+                reason: "a view-dependence tree, not a mesh".into(),
+            });
+        }
         let bytes = self.read_rep_bytes(rep)?;
         RepMesh::decode(&bytes, rep, self.record(rep)?)
     }
 
-    /// Reads and decodes every rep: a full integrity check of the data section.
+    /// Reads the whole embedded view-dependence tree of rep `rep` and opens
+    /// it (its in-core part checked against the record).
+    pub fn read_vdt(&self, rep: RepId) -> Result<VdtFile, FormatError> {
+        let rec = *self.record(rep)?;
+        let bad = |reason: String| FormatError::BadRep { rep, reason };
+        if !rec.is_vdt() {
+            return Err(bad("not a view-dependence tree".into()));
+        }
+        let mut buf = vec![0u8; rec.extent() as usize];
+        self.source.read_at(rec.offset, &mut buf)?;
+        check_rep_crc(rep, &rec, &buf[..rec.len as usize])?;
+        let file = VdtFile::open(Arc::new(MemSource::new(buf))).map_err(|e| bad(e.to_string()))?;
+        check_vdt_record(rep, &rec, &file)?;
+        Ok(file)
+    }
+
+    /// Reads and decodes every rep (every meta-node of a view-dependence
+    /// tree): a full integrity check of the data section.
     pub fn verify_all_reps(&self) -> Result<(), FormatError> {
         for rep in 0..self.skeleton.reps.len() as RepId {
-            self.read_rep(rep)?;
+            if self.skeleton.reps[rep as usize].is_vdt() {
+                let file = self.read_vdt(rep)?;
+                for m in 0..file.header.meta_count {
+                    file.read_meta(m).map_err(|e| FormatError::BadRep {
+                        rep,
+                        reason: format!("meta-node {m}: {e}"),
+                    })?;
+                }
+            } else {
+                self.read_rep(rep)?;
+            }
         }
         Ok(())
     }
@@ -119,6 +154,23 @@ impl<S: ByteSource> SceneFile<S> {
                 reason: format!("no such rep ({} in the scene)", self.skeleton.reps.len()),
             })
     }
+}
+
+/// Checks an opened embedded tree against its rep record: the in-core part
+/// and the root meta-nodes are exactly `len` bytes, the whole file `len + aux`, and the counts agree.
+pub fn check_vdt_record(rep: RepId, rec: &RepRecord, file: &VdtFile) -> Result<(), FormatError> {
+    let h = &file.header;
+    if file.core_bytes() + file.root_bytes() != u64::from(rec.len)
+        || file.source.len() != rec.extent()
+        || h.leaf_count != rec.vertex_count
+        || h.triangle_count != rec.tri_count
+    {
+        return Err(FormatError::BadRep {
+            rep,
+            reason: "embedded view-dependence tree disagrees with its record".into(),
+        });
+    }
+    Ok(())
 }
 
 /// Checks a payload read by other means (e.g. block by block) against its record.

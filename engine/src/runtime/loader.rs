@@ -34,6 +34,9 @@ pub(super) struct Loader {
     skeleton: Arc<Skeleton>,
     index: Arc<FrontIndex>,
     source: Arc<dyn ByteSource>,
+    /// Bytes reserved for each view-dependence tree's store besides its
+    /// payload (0 for other reps; see `trees::plan_pools`).
+    pools: Arc<Vec<u64>>,
     params: RuntimeParams,
     cmds: Receiver<Cmd>,
     replies: Sender<Reply>,
@@ -84,6 +87,7 @@ impl Loader {
         skeleton: Arc<Skeleton>,
         index: Arc<FrontIndex>,
         source: Arc<dyn ByteSource>,
+        pools: Arc<Vec<u64>>,
         params: RuntimeParams,
         cmds: Receiver<Cmd>,
         replies: Sender<Reply>,
@@ -101,7 +105,8 @@ impl Loader {
             pending: None,
             list: InMemoryList::new(n),
             data: vec![None; n],
-            failed: vec![false; n],
+            failed: pools.iter().map(|&p| p == super::trees::UNUSABLE).collect(),
+            pools,
             pinned: vec![0; n],
             pin_gen: 1,
             keep: None,
@@ -177,8 +182,37 @@ impl Loader {
                         self.classify_front(&view, turn_rad);
                     }
                 }
+                Cmd::Unusable(r) => self.unusable(r),
                 Cmd::Shutdown => return,
             }
+        }
+    }
+
+    /// Footprint bytes of rep `r` while resident: its payload, and the
+    /// reserve of a view-dependence tree's store.
+    fn cost(&self, r: RepId) -> u64 {
+        let pool = self.pools[r as usize];
+        let pool = if pool == super::trees::UNUSABLE {
+            0
+        } else {
+            pool
+        };
+        u64::from(self.skeleton.reps[r as usize].len) + pool
+    }
+
+    /// P_R could not use rep `r` (a view-dependence tree whose store did not
+    /// start): drop it and substitute its ancestor from now on.
+    fn unusable(&mut self, r: RepId) {
+        if self.failed[r as usize] {
+            return;
+        }
+        self.failed[r as usize] = true;
+        self.stats.read_errors += 1;
+        if self.data[r as usize].take().is_some() {
+            self.set_speculative(r, false);
+            self.list.remove(r);
+            self.resident -= self.cost(r);
+            self.evicted.push(r);
         }
     }
 
@@ -200,7 +234,7 @@ impl Loader {
             return Ok(());
         }
         let r = root.first_rep;
-        let need = u64::from(self.skeleton.reps[r as usize].len);
+        let need = self.cost(r);
         if need > self.params.budget_bytes {
             return Err(RuntimeError::BudgetTooSmall {
                 budget: self.params.budget_bytes,
@@ -356,7 +390,7 @@ impl Loader {
                 continue;
             }
             victims.push(r);
-            after -= u64::from(self.skeleton.reps[r as usize].len);
+            after -= self.cost(r);
             if after <= target {
                 break;
             }
@@ -368,7 +402,7 @@ impl Loader {
             self.set_speculative(r, false);
             self.data[r as usize] = None;
             self.list.remove(r);
-            self.resident -= u64::from(self.skeleton.reps[r as usize].len);
+            self.resident -= self.cost(r);
             self.stats.evictions += 1;
             self.evicted.push(r);
         }
@@ -381,14 +415,20 @@ impl Loader {
             return Err(LoadError::Failed);
         }
         let rec = self.skeleton.reps[r as usize];
-        let len = u64::from(rec.len);
+        let len = self.cost(r);
         if !self.make_room(len, purpose) {
             return Err(LoadError::NoRoom);
         }
         // Reserve first: bytes being loaded count against the budget.
         self.resident += len;
         self.stats.max_resident_bytes = self.stats.max_resident_bytes.max(self.resident);
-        let mut buf = vec![0u8; rec.len as usize];
+        // In core, a tree comes whole (P_R then refines it without paging).
+        let read = if self.params.mode == Mode::Incore && rec.is_vdt() {
+            rec.extent()
+        } else {
+            u64::from(rec.len)
+        };
+        let mut buf = vec![0u8; read as usize];
         let block = self.params.block_bytes;
         let mut done = 0usize;
         while done < buf.len() {
@@ -418,7 +458,7 @@ impl Loader {
                 return Err(LoadError::Preempted);
             }
         }
-        if let Err(e) = check_rep_crc(r, &rec, &buf) {
+        if let Err(e) = check_rep_crc(r, &rec, &buf[..rec.len as usize]) {
             self.resident -= len;
             return Err(self.fail(r, &e.to_string()));
         }
@@ -426,9 +466,9 @@ impl Loader {
         self.data[r as usize] = Some(payload.clone());
         self.list.access(r);
         match purpose {
-            Purpose::Demand => self.stats.stage2_bytes += len,
+            Purpose::Demand => self.stats.stage2_bytes += read,
             Purpose::Prefetch => {
-                self.stats.prefetch_bytes += len;
+                self.stats.prefetch_bytes += read;
                 self.set_speculative(r, true);
             }
         }
@@ -439,7 +479,7 @@ impl Loader {
         let flag = &mut self.speculative[r as usize];
         if *flag != on {
             *flag = on;
-            let len = u64::from(self.skeleton.reps[r as usize].len);
+            let len = self.cost(r);
             if on {
                 self.speculative_bytes += len;
             } else {

@@ -14,6 +14,7 @@
 mod loader;
 #[cfg(test)]
 mod tests;
+mod trees;
 
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -115,6 +116,10 @@ pub struct RuntimeParams {
     /// Frame period P_R keeps (0: unpaced). P_I starts a prefetch read only
     /// when it expects to finish before the next fetch command is due.
     pub frame_period_s: f32,
+    /// Place-holder bytes reserved for each resident view-dependence tree
+    /// (raised to what its root meta-nodes need, capped at its meta-node
+    /// data), out of the same footprint as the reps.
+    pub vdt_pool_bytes: u64,
 }
 
 impl Default for RuntimeParams {
@@ -130,6 +135,7 @@ impl Default for RuntimeParams {
             block_bytes: 64 << 10,
             prefetch: PrefetchParams::default(),
             frame_period_s: 0.0,
+            vdt_pool_bytes: 4 << 20,
         }
     }
 }
@@ -211,6 +217,8 @@ enum Cmd {
         turn_rad: f32,
         front: Arc<Vec<RepId>>,
     },
+    /// P_R cannot use this rep (a view-dependence tree whose store failed).
+    Unusable(RepId),
     Shutdown,
 }
 
@@ -260,6 +268,7 @@ pub struct Walkthrough {
     drawn_stamp: Vec<u32>,
     frame: u32,
     last_pose: Option<Pose>,
+    trees: trees::Trees,
 }
 
 impl std::fmt::Debug for Walkthrough {
@@ -285,6 +294,17 @@ impl Walkthrough {
             return Err(RuntimeError::NoReps);
         }
         let index = Arc::new(FrontIndex::new(&skeleton));
+        let pools = Arc::new(trees::plan_pools(
+            &skeleton,
+            source.as_ref(),
+            params.vdt_pool_bytes,
+        ));
+        let trees = trees::Trees::new(
+            source.clone(),
+            skeleton.clone(),
+            pools.clone(),
+            params.mode == Mode::Incore,
+        );
         let (cmd_tx, cmd_rx) = bounded(2);
         let (reply_tx, reply_rx) = bounded(256);
         let (ready_tx, ready_rx) = bounded(1);
@@ -292,6 +312,7 @@ impl Walkthrough {
             skeleton.clone(),
             index.clone(),
             source,
+            pools,
             params,
             cmd_rx,
             reply_tx,
@@ -318,6 +339,7 @@ impl Walkthrough {
             loader: Some(handle),
             frame: 0,
             last_pose: None,
+            trees,
         })
     }
 
@@ -400,11 +422,15 @@ impl Walkthrough {
         };
         for &r in front.iter() {
             let rec = &self.skeleton.reps[r as usize];
-            m.front_tris += u64::from(rec.tri_count);
             m.front_bytes += u64::from(rec.len);
+            if !rec.is_vdt() {
+                m.front_tris += u64::from(rec.tri_count);
+            }
         }
         renderer.begin_frame(&self.view(draw_pose));
         let mut wait = 0.0;
+        let mut tf = trees::TreeFrame::default();
+        let mut unusable = Vec::new();
         let stats = loop {
             let reply = match self.replies.try_recv() {
                 Ok(r) => r,
@@ -421,6 +447,28 @@ impl Walkthrough {
                     for_rep,
                     payload,
                 } => {
+                    let rec = &self.skeleton.reps[rep as usize];
+                    if rec.is_vdt() {
+                        let before = tf.tris;
+                        match self.trees.draw(
+                            rep,
+                            &payload,
+                            &view,
+                            self.params.tolerance_px,
+                            renderer,
+                            &mut tf,
+                        ) {
+                            Ok(()) => {
+                                m.drawn_reps += 1;
+                                m.drawn_tris += tf.tris - before;
+                            }
+                            Err(_) => {
+                                m.substituted += 1;
+                                unusable.push(rep);
+                            }
+                        }
+                        continue;
+                    }
                     if rep == for_rep {
                         m.drawn_reps += 1;
                     } else {
@@ -437,12 +485,26 @@ impl Walkthrough {
                 Reply::Evicted(reps) => {
                     for r in reps {
                         renderer.evict(r);
+                        self.trees.evict(r);
                     }
                 }
                 Reply::Done(s) => break s,
             }
         };
         renderer.end_frame();
+        for r in unusable {
+            self.cmd
+                .send(Cmd::Unusable(r))
+                .map_err(|_| RuntimeError::LoaderGone)?;
+        }
+        m.front_tris += tf.tris;
+        m.vdt_trees = tf.trees;
+        m.adapt = tf.adapt;
+        m.vdt_tris = tf.tris;
+        m.vdt_misses = tf.misses;
+        m.metas_loaded = tf.metas_loaded;
+        m.vdt_ms = tf.ms;
+        m.vdt_bytes = self.trees.bytes();
         m.gpu_bytes = renderer.gpu_bytes();
         m.wait_ms = wait;
         m.missing_reps = stats.missing_reps;

@@ -90,11 +90,7 @@ impl ExtStore {
     /// Holder bytes that fit in `budget` after the in-core part; an error
     /// when the root meta-nodes and three of the largest do not fit.
     pub fn buffer_for(file: &VdtFile, budget: u64) -> Result<u64, VdtError> {
-        let roots: u64 = file.mnt[..file.header.root_count as usize]
-            .iter()
-            .map(|r| u64::from(r.len))
-            .sum();
-        let need = roots + 3 * u64::from(file.header.max_meta_bytes);
+        let need = file.holder_need();
         let k = budget.saturating_sub(file.core_bytes());
         if k < need {
             return Err(VdtError::Corrupt(format!(

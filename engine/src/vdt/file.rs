@@ -64,6 +64,28 @@ pub const TRI_ENTRY: u64 = 16;
 /// Bytes of one node in the flat layout.
 pub const NODE_ENTRY: u64 = std::mem::size_of::<VdNode>() as u64;
 
+impl VdtHeader {
+    /// Bytes of the file's prefix a scene rep covers: the in-core part
+    /// (header, MNT, permanent triangles) and the root meta-nodes, which come
+    /// first in DATA — everything the coarsest level needs. `None` when
+    /// `bytes` is not that long or its header and root records disagree.
+    pub fn rep_len(bytes: &[u8]) -> Option<usize> {
+        let h: VdtHeader = bytemuck::pod_read_unaligned(bytes.get(..112)?);
+        let roots = h.root_count as usize;
+        let mnt = bytes.get(112..112usize.checked_add(roots.checked_mul(32)?)?)?;
+        let mut end = usize::try_from(h.data_offset).ok()?;
+        for c in mnt.chunks_exact(32) {
+            let r: meta::MntRecord = bytemuck::pod_read_unaligned(c);
+            let at = usize::try_from(h.data_offset.checked_add(r.offset)?).ok()?;
+            if at != end {
+                return None; // root meta-nodes are stored first, in order
+            }
+            end = at.checked_add(r.len as usize)?;
+        }
+        (end <= bytes.len()).then_some(end)
+    }
+}
+
 /// Bytes of the flat layout of a tree with `leaves` leaves, `nodes` nodes
 /// (`nodes >= leaves`), `adjacency` adjacency entries and `roots` roots.
 pub fn flat_len(leaves: u64, nodes: u64, adjacency: u64, roots: u64) -> u64 {
@@ -254,6 +276,20 @@ impl VdtFile {
     /// Bytes of the in-core part (header, MNT, permanent triangles).
     pub fn core_bytes(&self) -> u64 {
         self.header.data_offset
+    }
+
+    /// Bytes of the root meta-nodes (stored first in DATA).
+    pub fn root_bytes(&self) -> u64 {
+        self.mnt[..self.header.root_count as usize]
+            .iter()
+            .map(|r| u64::from(r.len))
+            .sum()
+    }
+
+    /// Holder bytes the external-memory store needs at least: the root
+    /// meta-nodes and room for three of the largest.
+    pub fn holder_need(&self) -> u64 {
+        self.root_bytes() + 3 * u64::from(self.header.max_meta_bytes)
     }
 
     /// Reads one meta-node payload and decodes it (checksum checked).

@@ -27,6 +27,9 @@ pub enum Metric {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct VdtParams {
     pub metric: Metric,
+    /// Stop collapsing at this switch value (a tree that only refines below
+    /// a static LOD of this error); `None` collapses while any collapse is valid.
+    pub max_switch: Option<f32>,
 }
 
 /// A collapse may not turn a triangle more than ≈75° away from its
@@ -107,7 +110,12 @@ pub fn build_tree(positions: &[[f32; 3]], indices: &[u32], p: &VdtParams) -> VdT
     for v in 0..n as u32 {
         b.push_edges(v);
     }
-    while let Some(Reverse((_, _, keep, gone))) = b.heap.pop() {
+    // Costs are non-negative f64s, ordered by their bits.
+    let stop = p.max_switch.map(|s| f64::from(s).to_bits());
+    while let Some(Reverse((cost, _, keep, gone))) = b.heap.pop() {
+        if stop.is_some_and(|s| cost >= s) {
+            break;
+        }
         if b.dead[keep as usize] || b.dead[gone as usize] {
             continue;
         }

@@ -41,7 +41,14 @@ fn sorted_tris(t: impl IntoIterator<Item = [u32; 3]>, pos: &[[f32; 3]]) -> Vec<[
 fn grid_builds_a_valid_tree_and_full_refinement_is_the_input() {
     let (p, idx) = grid(12);
     for metric in [Metric::Quadric, Metric::EdgeLength] {
-        let t = build_tree(&p, &idx, &VdtParams { metric });
+        let t = build_tree(
+            &p,
+            &idx,
+            &VdtParams {
+                metric,
+                max_switch: None,
+            },
+        );
         t.validate().unwrap();
         assert_eq!(t.leaf_count(), p.len());
         assert!(t.roots.len() < 10, "{metric:?}: {} roots", t.roots.len());

@@ -17,7 +17,7 @@ use engine::disk::{DiskModel, open_scene_source};
 use engine::gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use engine::image::RgbaImage;
 use engine::metrics::FrameMetrics;
-use engine::metrics::{Summary, summarize, summary_table, to_csv};
+use engine::metrics::{Summary, summarize, summary_table, to_csv, vdt_table};
 use engine::render::{NoneRenderer, Renderer};
 use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path};
 use glam::Vec3;
@@ -94,6 +94,10 @@ struct Args {
     /// Output directory for CSVs, the summary, plots and the path used.
     #[arg(long, default_value = "out/bench")]
     out: PathBuf,
+    /// Place-holder bytes reserved per resident view-dependence tree (bytes
+    /// or a percentage of the scene data), out of the footprint.
+    #[arg(long, default_value = "4MiB")]
+    vdt_pool: String,
 }
 
 fn main() -> ExitCode {
@@ -134,7 +138,8 @@ fn run(a: Args) -> Result<()> {
     }
     let scene = SceneFile::open(&a.scene).with_context(|| a.scene.display().to_string())?;
     let skel = Arc::new(scene.skeleton().clone());
-    let data_bytes: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    let data_bytes: u64 = skel.reps.iter().map(|r| r.extent()).sum();
+    let vdt_pool = engine::cli::parse_budget(&a.vdt_pool, data_bytes)?;
     let budgets: Vec<u64> = match &a.budgets {
         Some(list) => list
             .split(',')
@@ -180,6 +185,7 @@ fn run(a: Args) -> Result<()> {
             ..PrefetchParams::default()
         },
         frame_period_s: if a.fps > 0.0 { 1.0 / a.fps } else { 0.0 },
+        vdt_pool_bytes: vdt_pool,
         ..RuntimeParams::default()
     };
     println!(
@@ -295,7 +301,10 @@ fn run(a: Args) -> Result<()> {
         eprintln!("{tag}: done");
         done.push((mode, budget, frames));
     }
-    let table = summary_table(&rows);
+    let mut table = summary_table(&rows);
+    if skel.reps.iter().any(|r| r.is_vdt()) {
+        table.push_str(&format!("\nView-dependence trees:\n\n{}", vdt_table(&rows)));
+    }
     println!("\n{table}");
     let mut report = table.clone();
     if !quality_rows.is_empty() {

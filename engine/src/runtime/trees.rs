@@ -1,0 +1,287 @@
+//! View-dependence trees on P_R (El-Sana & Chiang §3.3 inside the
+//! Varadhan & Manocha front).
+//!
+//! A tree rep's payload (the `.vdt` file's in-core part and root meta-nodes)
+//! comes from P_I like any rep. When the front selects it, P_R opens the tree
+//! over that payload and the scene file behind it ([`WindowSource`]), starts
+//! its external-memory store (its own I/O thread reads the other meta-nodes
+//! through the same disk model) and, every frame the rep is drawn, runs one
+//! refinement pass for the view and draws the active triangles as a mesh
+//! rebuilt whenever the cut changed. In `incore` mode P_I loads the whole
+//! file and the tree is refined fully in memory.
+//!
+//! One footprint: P_I reserves, for every resident tree rep, its payload
+//! plus the store's bytes (in-core part and place holders), planned once at
+//! start-up ([`plan_pools`]); the store never holds more than its reserve, so
+//! resident bytes stay within the budget. A tree whose store cannot start is
+//! reported to P_I, which substitutes its finest static LOD from then on.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::Vec3;
+
+use crate::camera::View;
+use crate::format::{RepMesh, RepRecord};
+use crate::io::{ByteSource, MemSource, WindowSource};
+use crate::render::Renderer;
+use crate::skeleton::{RepId, Skeleton};
+use crate::vdt::VdTree;
+use crate::vdt::ext::ExtStore;
+use crate::vdt::file::{VdtFile, VdtHeader};
+use crate::vdt::meta::MntRecord;
+use crate::vdt::refine::{Criterion, NodeStore, Refiner};
+
+/// Pool marker of a tree rep that cannot be used (P_I never loads it).
+pub(super) const UNUSABLE: u64 = u64::MAX;
+
+/// Bytes P_I reserves for each tree rep's store, besides its payload: the
+/// tree's in-core part plus `max(need, min(wanted, DATA))` holder bytes,
+/// where `need` is the root meta-nodes and three of the largest. Reads each
+/// tree's header and root records (one small read per tree); 0 for other
+/// reps, [`UNUSABLE`] for a tree whose header cannot be read.
+pub(super) fn plan_pools(skeleton: &Skeleton, source: &dyn ByteSource, wanted: u64) -> Vec<u64> {
+    skeleton
+        .reps
+        .iter()
+        .enumerate()
+        .map(|(r, rec)| {
+            if !rec.is_vdt() {
+                return 0;
+            }
+            plan_one(source, rec, wanted).unwrap_or_else(|why| {
+                tracing::warn!("tree rep {r}: {why}; its finest static LOD is drawn instead");
+                UNUSABLE
+            })
+        })
+        .collect()
+}
+
+fn plan_one(source: &dyn ByteSource, rec: &RepRecord, wanted: u64) -> Result<u64, String> {
+    let mut hb = [0u8; 112];
+    source
+        .read_at(rec.offset, &mut hb)
+        .map_err(|e| e.to_string())?;
+    let h: VdtHeader = bytemuck::pod_read_unaligned(&hb);
+    let roots = u64::from(h.root_count);
+    if roots == 0 || 112 + roots * 32 > u64::from(rec.len) || h.data_offset > u64::from(rec.len) {
+        return Err("header disagrees with its record".into());
+    }
+    let mut mb = vec![0u8; (roots * 32) as usize];
+    source
+        .read_at(rec.offset + 112, &mut mb)
+        .map_err(|e| e.to_string())?;
+    let root_bytes: u64 = mb
+        .chunks_exact(32)
+        .map(|c| u64::from(bytemuck::pod_read_unaligned::<MntRecord>(c).len))
+        .sum();
+    let need = root_bytes + 3 * u64::from(h.max_meta_bytes);
+    Ok(h.data_offset + need.max(wanted.min(h.data_len)))
+}
+
+enum Store {
+    Ext(Box<ExtStore>),
+    Core(Box<VdTree>),
+}
+
+impl Store {
+    fn nodes(&mut self) -> &mut dyn NodeStore {
+        match self {
+            Store::Ext(s) => s.as_mut(),
+            Store::Core(t) => t.as_mut(),
+        }
+    }
+}
+
+struct Tree {
+    store: Store,
+    refiner: Refiner,
+    /// Bytes the store holds (in core: the whole tree's flat layout).
+    core_bytes: u64,
+    /// The cut as drawn (synthetic record and payload), rebuilt on change.
+    mesh: Option<(RepRecord, Arc<[u8]>)>,
+    loads: u64,
+}
+
+/// One frame's tree work, for the metrics.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct TreeFrame {
+    pub trees: u32,
+    pub adapt: u32,
+    pub tris: u64,
+    pub misses: u32,
+    pub metas_loaded: u32,
+    pub ms: f64,
+}
+
+/// P_R's live trees.
+pub(super) struct Trees {
+    source: Arc<dyn ByteSource>,
+    skeleton: Arc<Skeleton>,
+    pools: Arc<Vec<u64>>,
+    incore: bool,
+    live: BTreeMap<RepId, Tree>,
+    failed: BTreeSet<RepId>,
+}
+
+impl Trees {
+    pub(super) fn new(
+        source: Arc<dyn ByteSource>,
+        skeleton: Arc<Skeleton>,
+        pools: Arc<Vec<u64>>,
+        incore: bool,
+    ) -> Self {
+        Self {
+            source,
+            skeleton,
+            pools,
+            incore,
+            live: BTreeMap::new(),
+            failed: BTreeSet::new(),
+        }
+    }
+
+    /// Bytes held by the live trees' stores.
+    pub(super) fn bytes(&self) -> u64 {
+        self.live
+            .values()
+            .map(|t| match &t.store {
+                Store::Ext(s) => s.resident_bytes(),
+                Store::Core(_) => t.core_bytes,
+            })
+            .sum()
+    }
+
+    /// P_I evicted rep `r`: its store goes with it.
+    pub(super) fn evict(&mut self, r: RepId) {
+        self.live.remove(&r);
+    }
+
+    fn open(&self, r: RepId, payload: &Arc<[u8]>) -> Result<Tree, String> {
+        let rec = &self.skeleton.reps[r as usize];
+        let src: Arc<dyn ByteSource> = if payload.len() as u64 == rec.extent() {
+            Arc::new(MemSource::new(payload.clone()))
+        } else {
+            Arc::new(
+                WindowSource::new(
+                    self.source.clone(),
+                    rec.offset,
+                    rec.extent(),
+                    payload.clone(),
+                )
+                .map_err(|e| e.to_string())?,
+            )
+        };
+        let file = VdtFile::open(src).map_err(|e| e.to_string())?;
+        crate::format::check_vdt_record(r, rec, &file).map_err(|e| e.to_string())?;
+        let flat = file.source.len() - file.header.virt_offset;
+        let mut store = if self.incore {
+            let tree = file.load_tree().map_err(|e| e.to_string())?;
+            Store::Core(Box::new(tree))
+        } else {
+            let s = ExtStore::start(Arc::new(file), self.pools[r as usize])
+                .map_err(|e| e.to_string())?;
+            Store::Ext(Box::new(s))
+        };
+        let refiner = Refiner::new(store.nodes()).map_err(|e| e.to_string())?;
+        Ok(Tree {
+            store,
+            refiner,
+            core_bytes: flat,
+            mesh: None,
+            loads: 0,
+        })
+    }
+
+    /// Refines rep `r`'s tree for `view` and draws its cut. `Err` when the
+    /// tree cannot be used (reported once; P_I is told by the caller).
+    pub(super) fn draw(
+        &mut self,
+        r: RepId,
+        payload: &Arc<[u8]>,
+        view: &View,
+        tolerance_px: f32,
+        renderer: &mut dyn Renderer,
+        out: &mut TreeFrame,
+    ) -> Result<(), String> {
+        let t0 = Instant::now();
+        if self.failed.contains(&r) {
+            return Err("unusable".into());
+        }
+        if !self.live.contains_key(&r) {
+            match self.open(r, payload) {
+                Ok(t) => {
+                    self.live.insert(r, t);
+                }
+                Err(why) => {
+                    tracing::warn!("tree rep {r}: {why}; its finest static LOD is drawn instead");
+                    self.failed.insert(r);
+                    return Err(why);
+                }
+            }
+        }
+        let rec = self.skeleton.reps[r as usize];
+        let color = self.skeleton.nodes[rec.node as usize].color.to_le_bytes();
+        let tree = self.live.get_mut(&r).expect("inserted above");
+        if let Store::Ext(s) = &mut tree.store {
+            s.poll().map_err(|e| e.to_string())?;
+            out.metas_loaded += (s.stats.loads - tree.loads) as u32;
+            tree.loads = s.stats.loads;
+        }
+        let c = Criterion::new(*view, tolerance_px);
+        let st = tree
+            .refiner
+            .pass(tree.store.nodes(), &c)
+            .map_err(|e| e.to_string())?;
+        out.trees += 1;
+        out.adapt += st.adapt();
+        out.misses += st.misses;
+        out.tris += tree.refiner.triangle_count() as u64;
+        if st.adapt() > 0 || tree.mesh.is_none() {
+            if tree.mesh.is_some() {
+                renderer.evict(r);
+            }
+            tree.mesh = Some(cut_mesh(&tree.refiner, &rec, color));
+        }
+        out.ms += t0.elapsed().as_secs_f64() * 1e3;
+        let (mrec, mesh) = tree.mesh.as_ref().expect("built above");
+        renderer.draw(r, mrec, mesh, false);
+        Ok(())
+    }
+}
+
+/// The active triangles as a rep payload (vertex normals area-weighted from
+/// the active faces) with a record that matches it.
+fn cut_mesh(refiner: &Refiner, rec: &RepRecord, color: [u8; 4]) -> (RepRecord, Arc<[u8]>) {
+    let tris = refiner.triangles();
+    let mut slot: BTreeMap<u32, u32> = BTreeMap::new();
+    let mut positions: Vec<[f32; 3]> = Vec::new();
+    let mut normals: Vec<Vec3> = Vec::new();
+    let mut indices = Vec::with_capacity(tris.len() * 3);
+    for (_, leaves, p) in &tris {
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        for k in 0..3 {
+            let v = *slot.entry(leaves[k]).or_insert_with(|| {
+                positions.push(p[k].to_array());
+                normals.push(Vec3::ZERO);
+                positions.len() as u32 - 1
+            });
+            normals[v as usize] += n;
+            indices.push(v);
+        }
+    }
+    let normals: Vec<[f32; 3]> = normals.iter().map(|n| n.to_array()).collect();
+    let colors = vec![color; positions.len()];
+    let vertex_count = positions.len() as u32;
+    let mesh = RepMesh::quantize(&positions, &normals, &colors, indices);
+    let bytes = mesh.encode(rec.node, u32::from(rec.index));
+    let out = RepRecord {
+        len: bytes.len() as u32,
+        tri_count: tris.len() as u32,
+        vertex_count,
+        aux: 0,
+        ..*rec
+    };
+    (out, bytes.into())
+}

@@ -1,0 +1,109 @@
+//! A large object's view-dependence tree as its finest object-rep.
+//!
+//! The object keeps its `keep` coarsest static LODs as coarser reps and the
+//! tree replaces the finer ones; it is built only up to the error of the
+//! finest static LOD kept (collapses stop there), so its coarsest switch value — the rep's
+//! error — sits below that LOD's and errors stay strictly decreasing along
+//! PAR/CHD. The tree is embedded in the scene file as a whole `.vdt` file:
+//! the record's `len` covers its in-core part and root meta-nodes (what the
+//! coarsest level needs: P_I loads it like any rep), `aux` the other
+//! meta-nodes and the flat layout, paged at run time.
+
+use std::io::{Seek, Write};
+
+use engine::format::{RepKind, RepRecord, SceneWriter};
+use engine::vdt::file::encode;
+use engine::vdt::meta::levels_for_block;
+use engine::{FormatError, format::BLOCK};
+
+use super::{Metric, VdtParams, build_tree};
+use crate::lod::{Level, LodParams, lod_chain};
+use crate::mesh::Mesh;
+
+/// A built tree, ready to be written.
+#[derive(Debug)]
+pub struct TreeRep {
+    /// The encoded `.vdt` file.
+    pub bytes: Vec<u8>,
+    /// The tree's coarsest switch value plus the quantisation error of
+    /// drawing it over its box.
+    pub error: f32,
+    pub tri_count: u32,
+    pub vertex_count: u32,
+    pub bbox_min: [f32; 3],
+    pub bbox_max: [f32; 3],
+}
+
+/// The static levels kept for a large object and its tree (`None` when the
+/// chain is too short for the tree to replace anything).
+pub fn tree_levels(mesh: &Mesh, lod: &LodParams, keep: usize) -> (Vec<Level>, Option<TreeRep>) {
+    let mut chain = lod_chain(mesh, lod);
+    if chain.len() <= keep {
+        return (chain, None);
+    }
+    chain.truncate(keep);
+    let limit = chain.last().expect("one level kept").error;
+    let positions: Vec<[f32; 3]> = mesh.positions.clone();
+    let tree = build_tree(
+        &positions,
+        &mesh.indices,
+        &VdtParams {
+            metric: Metric::Quadric,
+            max_switch: Some(limit),
+        },
+    );
+    if tree.triangles.is_empty() {
+        return (chain, None);
+    }
+    let coarsest = tree
+        .roots
+        .iter()
+        .map(|&r| tree.nodes[r as usize].switch)
+        .fold(0.0f32, f32::max);
+    let b = mesh.bounds();
+    let (bbox_min, bbox_max) = b.to_arrays();
+    let extent = glam::Vec3::from(bbox_max) - glam::Vec3::from(bbox_min);
+    let quantisation = 0.5 * (extent / 65535.0).length();
+    let rep = TreeRep {
+        bytes: encode(&tree, levels_for_block(BLOCK as usize)),
+        error: coarsest + quantisation,
+        tri_count: tree.triangles.len() as u32,
+        vertex_count: tree.positions.len() as u32,
+        bbox_min,
+        bbox_max,
+    };
+    (chain, Some(rep))
+}
+
+/// Writes the tree after the node's static reps `below` (coarsest first) and
+/// returns its record, its error kept strictly under the finest static one.
+pub fn write_rep<W: Write + Seek>(
+    writer: &mut SceneWriter<W>,
+    node: u32,
+    below: &[RepRecord],
+    t: &TreeRep,
+) -> Result<RepRecord, FormatError> {
+    let finest = below.last().map_or(f32::INFINITY, |r| r.error);
+    let core = engine::vdt::file::VdtHeader::rep_len(&t.bytes)
+        .ok_or_else(|| FormatError::BadHeader("encoded tree without a header".into()))?;
+    let loc = writer.write_rep(&t.bytes)?;
+    let error = if t.error < finest {
+        t.error
+    } else {
+        finest.next_down().max(0.0)
+    };
+    Ok(RepRecord {
+        bbox_min: t.bbox_min,
+        bbox_max: t.bbox_max,
+        node,
+        index: below.len() as u16,
+        kind: RepKind::Vdt as u16,
+        error,
+        checksum: crc32fast::hash(&t.bytes[..core]),
+        offset: loc.offset,
+        len: core as u32,
+        tri_count: t.tri_count,
+        vertex_count: t.vertex_count,
+        aux: (t.bytes.len() - core) as u32,
+    })
+}
