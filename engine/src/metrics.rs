@@ -189,9 +189,10 @@ fn vdt_summary(frames: &[FrameMetrics]) -> Summary {
     Summary {
         vdt_frames: with.len(),
         mean_adapt: adapt as f64 / k,
-        mean_vdt_tris: with.iter().map(|f| f.vdt_tris as f64).sum::<f64>() / k,
+        // `+ 0.0`: an empty sum is -0.0.
+        mean_vdt_tris: with.iter().map(|f| f.vdt_tris as f64).sum::<f64>() / k + 0.0,
         vdt_miss_pct: 100.0 * misses as f64 / (adapt + misses).max(1) as f64,
-        mean_vdt_ms: with.iter().map(|f| f.vdt_ms).sum::<f64>() / k,
+        mean_vdt_ms: with.iter().map(|f| f.vdt_ms).sum::<f64>() / k + 0.0,
         metas_loaded: frames.iter().map(|f| u64::from(f.metas_loaded)).sum(),
         max_vdt_bytes: frames.iter().map(|f| f.vdt_bytes).max().unwrap_or(0),
         ..Summary::default()

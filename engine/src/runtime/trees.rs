@@ -254,32 +254,25 @@ impl Trees {
 /// The active triangles as a rep payload (vertex normals area-weighted from
 /// the active faces) with a record that matches it.
 fn cut_mesh(refiner: &Refiner, rec: &RepRecord, color: [u8; 4]) -> (RepRecord, Arc<[u8]>) {
-    let tris = refiner.triangles();
-    let mut slot: BTreeMap<u32, u32> = BTreeMap::new();
-    let mut positions: Vec<[f32; 3]> = Vec::new();
-    let mut normals: Vec<Vec3> = Vec::new();
-    let mut indices = Vec::with_capacity(tris.len() * 3);
-    for (_, leaves, p) in &tris {
+    let (positions, indices) = refiner.indexed_mesh();
+    let mut normals = vec![Vec3::ZERO; positions.len()];
+    for t in indices.chunks_exact(3) {
+        let p = [0, 1, 2].map(|k| positions[t[k] as usize]);
         let n = (p[1] - p[0]).cross(p[2] - p[0]);
-        for k in 0..3 {
-            let v = *slot.entry(leaves[k]).or_insert_with(|| {
-                positions.push(p[k].to_array());
-                normals.push(Vec3::ZERO);
-                positions.len() as u32 - 1
-            });
+        for &v in t {
             normals[v as usize] += n;
-            indices.push(v);
         }
     }
     let normals: Vec<[f32; 3]> = normals.iter().map(|n| n.to_array()).collect();
+    let positions: Vec<[f32; 3]> = positions.iter().map(|p| p.to_array()).collect();
     let colors = vec![color; positions.len()];
-    let vertex_count = positions.len() as u32;
+    let tri_count = (indices.len() / 3) as u32;
     let mesh = RepMesh::quantize(&positions, &normals, &colors, indices);
     let bytes = mesh.encode(rec.node, u32::from(rec.index));
     let out = RepRecord {
         len: bytes.len() as u32,
-        tri_count: tris.len() as u32,
-        vertex_count,
+        tri_count,
+        vertex_count: positions.len() as u32,
         aux: 0,
         ..*rec
     };

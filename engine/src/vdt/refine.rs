@@ -174,6 +174,18 @@ impl Refiner {
         v
     }
 
+    /// The cut as an indexed mesh: one vertex per active node (ascending
+    /// id), triangles sorted by triangle id — shared corners stay shared.
+    pub fn indexed_mesh(&self) -> (Vec<Vec3>, Vec<u32>) {
+        let ids: Vec<u32> = self.active.keys().copied().collect();
+        let positions = self.active.values().map(|a| a.pos).collect();
+        let mut tris: Vec<(u32, [u32; 3])> = self.tris.iter().map(|(&t, x)| (t, x.nodes)).collect();
+        tris.sort_unstable_by_key(|x| x.0);
+        let slot = |n: u32| ids.binary_search(&n).map_or(0, |i| i as u32);
+        let indices = tris.iter().flat_map(|(_, c)| c.map(slot)).collect();
+        (positions, indices)
+    }
+
     /// One pass over the active nodes.
     pub fn pass(
         &mut self,

@@ -33,7 +33,7 @@ struct Args {
     /// Camera path file (default: the scene's generated fly-through).
     #[arg(long)]
     path: Option<PathBuf>,
-    /// Generated path when no --path: flythrough, approach or orbit.
+    /// Generated path when no --path: flythrough, approach, orbit or approach-orbit.
     #[arg(long, default_value = "flythrough")]
     path_kind: String,
     /// Frames of a generated path.
@@ -157,7 +157,8 @@ fn run(a: Args) -> Result<()> {
                 "flythrough" => PathKind::Flythrough,
                 "approach" => PathKind::Approach,
                 "orbit" => PathKind::Orbit,
-                k => bail!("--path-kind {k:?}: use flythrough, approach or orbit"),
+                "approach-orbit" => PathKind::ApproachOrbit,
+                k => bail!("--path-kind {k:?}: use flythrough, approach, orbit or approach-orbit"),
             };
             if a.frames == 0 || a.frames > 1_000_000 {
                 bail!("--frames must be in 1..=1000000");
