@@ -31,10 +31,12 @@
 //! - [`vdt`]: view-dependence trees (El-Sana & Chiang) for large objects —
 //!   the tree, meta-node blocking and file, per-frame refinement, the
 //!   place-holder buffer manager with its I/O thread, and the
-//!   virtual-memory baseline.
+//!   virtual-memory baseline. A tree is a large object's finest rep in the
+//!   scene file (`RepKind::Vdt`); P_R refines and draws it
+//!   (`runtime::trees`) under the runtime's one footprint.
 //!
-//! Nothing here depends on a GPU API: the wgpu renderer, when it lands, is the
-//! only module that touches wgpu, behind [`render::Renderer`].
+//! Only [`gpu`] touches wgpu, behind [`render::Renderer`]; everything else is
+//! plain Rust testable without a GPU.
 
 pub mod cache;
 pub mod camera;

@@ -9,6 +9,10 @@
 //! preemptible block-wise loading, and in `pre` mode binned priority
 //! prefetching with the enlarged frustum in Stages III and I.
 //!
+//! A view-dependence tree rep (`trees`) is loaded by P_I like any rep; P_R
+//! refines it once per frame it is drawn, its meta-node store's bytes
+//! reserved by P_I out of the same budget.
+//!
 //! The two threads talk over bounded `crossbeam-channel`s only.
 
 mod loader;
