@@ -460,24 +460,6 @@ fn leaf_levels<'a>(
     params: &BuildParams,
     chain_of: &(dyn Fn(usize) -> Option<&'a Vec<crate::lod::Level>> + Sync),
 ) -> LeafGeometry {
-    if let [k] = leaf_items
-        && let Item::Tree { mesh, .. } = &items[*k as usize]
-    {
-        return crate::vdt::tree_levels(mesh, &params.lod, params.vdt_keep);
-    }
-    (
-        static_levels(leaf_items, items, imported, params, chain_of),
-        None,
-    )
-}
-
-fn static_levels<'a>(
-    leaf_items: &[u32],
-    items: &[Item],
-    imported: &Imported,
-    params: &BuildParams,
-    chain_of: &(dyn Fn(usize) -> Option<&'a Vec<crate::lod::Level>> + Sync),
-) -> Vec<crate::lod::Level> {
     if let [k] = leaf_items {
         match &items[*k as usize] {
             Item::Instance {
@@ -495,22 +477,25 @@ fn static_levels<'a>(
                         &local
                     }
                 };
-                return chain
+                let levels = chain
                     .iter()
                     .map(|l| crate::lod::Level {
                         mesh: l.mesh.transformed(transform),
                         error: l.error * scale,
                     })
                     .collect();
+                return (levels, None);
             }
             Item::Chunk { mesh, .. } => {
                 let lod = LodParams {
                     lock_border: true,
                     ..params.lod
                 };
-                return lod_chain(mesh, &lod);
+                return (lod_chain(mesh, &lod), None);
             }
-            Item::Tree { mesh, .. } => return lod_chain(mesh, &params.lod),
+            Item::Tree { mesh, .. } => {
+                return crate::vdt::tree_levels(mesh, &params.lod, params.vdt_keep);
+            }
         }
     }
     let parts: Vec<Mesh> = leaf_items
@@ -525,7 +510,7 @@ fn static_levels<'a>(
             Item::Chunk { mesh, .. } | Item::Tree { mesh, .. } => mesh.clone(),
         })
         .collect();
-    lod_chain(&Mesh::merge(&parts), &params.lod)
+    (lod_chain(&Mesh::merge(&parts), &params.lod), None)
 }
 
 /// Writes a node's levels (coarsest first); `floor` is an error every rep must

@@ -208,12 +208,18 @@ impl Loader {
         }
         self.failed[r as usize] = true;
         self.stats.read_errors += 1;
-        if self.data[r as usize].take().is_some() {
-            self.set_speculative(r, false);
-            self.list.remove(r);
-            self.resident -= self.cost(r);
-            self.evicted.push(r);
+        if self.data[r as usize].is_some() {
+            self.drop_rep(r);
         }
+    }
+
+    /// Removes resident rep `r` and tells P_R.
+    fn drop_rep(&mut self, r: RepId) {
+        self.set_speculative(r, false);
+        self.data[r as usize] = None;
+        self.list.remove(r);
+        self.resident -= self.cost(r);
+        self.evicted.push(r);
     }
 
     fn start_up(&mut self) -> Result<(), RuntimeError> {
@@ -399,12 +405,8 @@ impl Loader {
             return false;
         }
         for r in victims {
-            self.set_speculative(r, false);
-            self.data[r as usize] = None;
-            self.list.remove(r);
-            self.resident -= self.cost(r);
+            self.drop_rep(r);
             self.stats.evictions += 1;
-            self.evicted.push(r);
         }
         true
     }

@@ -454,7 +454,7 @@ impl Walkthrough {
                     let rec = &self.skeleton.reps[rep as usize];
                     if rec.is_vdt() {
                         let before = tf.tris;
-                        match self.trees.draw(
+                        if self.trees.draw(
                             rep,
                             &payload,
                             &view,
@@ -462,14 +462,11 @@ impl Walkthrough {
                             renderer,
                             &mut tf,
                         ) {
-                            Ok(()) => {
-                                m.drawn_reps += 1;
-                                m.drawn_tris += tf.tris - before;
-                            }
-                            Err(_) => {
-                                m.substituted += 1;
-                                unusable.push(rep);
-                            }
+                            m.drawn_reps += 1;
+                            m.drawn_tris += tf.tris - before;
+                        } else {
+                            m.substituted += 1;
+                            unusable.push(rep);
                         }
                         continue;
                     }

@@ -16,7 +16,7 @@
 //! resident bytes stay within the budget. A tree whose store cannot start is
 //! reported to P_I, which substitutes its finest static LOD from then on.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -24,13 +24,12 @@ use glam::Vec3;
 
 use crate::camera::View;
 use crate::format::{RepMesh, RepRecord};
-use crate::io::{ByteSource, MemSource, WindowSource};
+use crate::io::{ByteSource, WindowSource};
 use crate::render::Renderer;
 use crate::skeleton::{RepId, Skeleton};
 use crate::vdt::VdTree;
 use crate::vdt::ext::ExtStore;
 use crate::vdt::file::{VdtFile, VdtHeader};
-use crate::vdt::meta::MntRecord;
 use crate::vdt::refine::{Criterion, NodeStore, Refiner};
 
 /// Pool marker of a tree rep that cannot be used (P_I never loads it).
@@ -59,37 +58,36 @@ pub(super) fn plan_pools(skeleton: &Skeleton, source: &dyn ByteSource, wanted: u
 }
 
 fn plan_one(source: &dyn ByteSource, rec: &RepRecord, wanted: u64) -> Result<u64, String> {
-    let mut hb = [0u8; 112];
-    source
-        .read_at(rec.offset, &mut hb)
-        .map_err(|e| e.to_string())?;
-    let h: VdtHeader = bytemuck::pod_read_unaligned(&hb);
-    let roots = u64::from(h.root_count);
-    if roots == 0 || 112 + roots * 32 > u64::from(rec.len) || h.data_offset > u64::from(rec.len) {
-        return Err("header disagrees with its record".into());
-    }
-    let mut mb = vec![0u8; (roots * 32) as usize];
-    source
-        .read_at(rec.offset + 112, &mut mb)
-        .map_err(|e| e.to_string())?;
-    let root_bytes: u64 = mb
-        .chunks_exact(32)
-        .map(|c| u64::from(bytemuck::pod_read_unaligned::<MntRecord>(c).len))
-        .sum();
-    let need = root_bytes + 3 * u64::from(h.max_meta_bytes);
-    Ok(h.data_offset + need.max(wanted.min(h.data_len)))
+    let read = |len: u64| -> Result<Vec<u8>, String> {
+        if len > u64::from(rec.len) {
+            return Err("header disagrees with its record".into());
+        }
+        let mut b = vec![0u8; len as usize];
+        source
+            .read_at(rec.offset, &mut b)
+            .map_err(|e| e.to_string())?;
+        Ok(b)
+    };
+    let head = read(112)?;
+    let roots = u64::from(bytemuck::pod_read_unaligned::<VdtHeader>(&head).root_count);
+    let prefix = read(112 + roots * 32)?;
+    let (h, root_bytes) = VdtHeader::with_root_bytes(&prefix)
+        .filter(|(h, _)| h.root_count > 0 && h.data_offset <= u64::from(rec.len))
+        .ok_or("header and root records disagree with the record")?;
+    Ok(h.data_offset + h.holder_need(root_bytes).max(wanted.min(h.data_len)))
 }
 
 enum Store {
     Ext(Box<ExtStore>),
-    Core(Box<VdTree>),
+    /// The whole tree, and the size of its flat layout (what it holds).
+    Core(Box<VdTree>, u64),
 }
 
 impl Store {
     fn nodes(&mut self) -> &mut dyn NodeStore {
         match self {
             Store::Ext(s) => s.as_mut(),
-            Store::Core(t) => t.as_mut(),
+            Store::Core(t, _) => t.as_mut(),
         }
     }
 }
@@ -97,8 +95,6 @@ impl Store {
 struct Tree {
     store: Store,
     refiner: Refiner,
-    /// Bytes the store holds (in core: the whole tree's flat layout).
-    core_bytes: u64,
     /// The cut as drawn (synthetic record and payload), rebuilt on change.
     mesh: Option<(RepRecord, Arc<[u8]>)>,
     loads: u64,
@@ -122,7 +118,6 @@ pub(super) struct Trees {
     pools: Arc<Vec<u64>>,
     incore: bool,
     live: BTreeMap<RepId, Tree>,
-    failed: BTreeSet<RepId>,
 }
 
 impl Trees {
@@ -138,7 +133,6 @@ impl Trees {
             pools,
             incore,
             live: BTreeMap::new(),
-            failed: BTreeSet::new(),
         }
     }
 
@@ -148,7 +142,7 @@ impl Trees {
             .values()
             .map(|t| match &t.store {
                 Store::Ext(s) => s.resident_bytes(),
-                Store::Core(_) => t.core_bytes,
+                Store::Core(_, bytes) => *bytes,
             })
             .sum()
     }
@@ -160,25 +154,21 @@ impl Trees {
 
     fn open(&self, r: RepId, payload: &Arc<[u8]>) -> Result<Tree, String> {
         let rec = &self.skeleton.reps[r as usize];
-        let src: Arc<dyn ByteSource> = if payload.len() as u64 == rec.extent() {
-            Arc::new(MemSource::new(payload.clone()))
-        } else {
-            Arc::new(
-                WindowSource::new(
-                    self.source.clone(),
-                    rec.offset,
-                    rec.extent(),
-                    payload.clone(),
-                )
-                .map_err(|e| e.to_string())?,
-            )
-        };
-        let file = VdtFile::open(src).map_err(|e| e.to_string())?;
+        // In core the payload is the whole file: the window never reads
+        // through to the scene source.
+        let src = WindowSource::new(
+            self.source.clone(),
+            rec.offset,
+            rec.extent(),
+            payload.clone(),
+        )
+        .map_err(|e| e.to_string())?;
+        let file = VdtFile::open(Arc::new(src)).map_err(|e| e.to_string())?;
         crate::format::check_vdt_record(r, rec, &file).map_err(|e| e.to_string())?;
         let flat = file.source.len() - file.header.virt_offset;
         let mut store = if self.incore {
             let tree = file.load_tree().map_err(|e| e.to_string())?;
-            Store::Core(Box::new(tree))
+            Store::Core(Box::new(tree), flat)
         } else {
             let s = ExtStore::start(Arc::new(file), self.pools[r as usize])
                 .map_err(|e| e.to_string())?;
@@ -188,14 +178,14 @@ impl Trees {
         Ok(Tree {
             store,
             refiner,
-            core_bytes: flat,
             mesh: None,
             loads: 0,
         })
     }
 
-    /// Refines rep `r`'s tree for `view` and draws its cut. `Err` when the
-    /// tree cannot be used (reported once; P_I is told by the caller).
+    /// Refines rep `r`'s tree for `view` and draws its cut; `false` when
+    /// the tree cannot be used (logged and dropped here; the caller tells
+    /// P_I, which never hands the rep over again).
     pub(super) fn draw(
         &mut self,
         r: RepId,
@@ -204,22 +194,29 @@ impl Trees {
         tolerance_px: f32,
         renderer: &mut dyn Renderer,
         out: &mut TreeFrame,
-    ) -> Result<(), String> {
+    ) -> bool {
         let t0 = Instant::now();
-        if self.failed.contains(&r) {
-            return Err("unusable".into());
+        let done = self.refine_and_draw(r, payload, view, tolerance_px, renderer, out);
+        out.ms += t0.elapsed().as_secs_f64() * 1e3;
+        if let Err(why) = &done {
+            tracing::warn!("tree rep {r}: {why}; its finest static LOD is drawn instead");
+            self.live.remove(&r);
         }
+        done.is_ok()
+    }
+
+    fn refine_and_draw(
+        &mut self,
+        r: RepId,
+        payload: &Arc<[u8]>,
+        view: &View,
+        tolerance_px: f32,
+        renderer: &mut dyn Renderer,
+        out: &mut TreeFrame,
+    ) -> Result<(), String> {
         if !self.live.contains_key(&r) {
-            match self.open(r, payload) {
-                Ok(t) => {
-                    self.live.insert(r, t);
-                }
-                Err(why) => {
-                    tracing::warn!("tree rep {r}: {why}; its finest static LOD is drawn instead");
-                    self.failed.insert(r);
-                    return Err(why);
-                }
-            }
+            let t = self.open(r, payload)?;
+            self.live.insert(r, t);
         }
         let rec = self.skeleton.reps[r as usize];
         let color = self.skeleton.nodes[rec.node as usize].color.to_le_bytes();
@@ -244,7 +241,6 @@ impl Trees {
             }
             tree.mesh = Some(cut_mesh(&tree.refiner, &rec, color));
         }
-        out.ms += t0.elapsed().as_secs_f64() * 1e3;
         let (mrec, mesh) = tree.mesh.as_ref().expect("built above");
         renderer.draw(r, mrec, mesh, false);
         Ok(())

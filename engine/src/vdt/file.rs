@@ -65,24 +65,39 @@ pub const TRI_ENTRY: u64 = 16;
 pub const NODE_ENTRY: u64 = std::mem::size_of::<VdNode>() as u64;
 
 impl VdtHeader {
-    /// Bytes of the file's prefix a scene rep covers: the in-core part
-    /// (header, MNT, permanent triangles) and the root meta-nodes, which come
-    /// first in DATA — everything the coarsest level needs. `None` when
-    /// `bytes` is not that long or its header and root records disagree.
-    pub fn rep_len(bytes: &[u8]) -> Option<usize> {
-        let h: VdtHeader = bytemuck::pod_read_unaligned(bytes.get(..112)?);
+    /// The header and the bytes of the root meta-nodes, from a prefix of an
+    /// encoded file holding at least the header and the roots' MNT records.
+    /// `None` when the prefix is shorter or the root meta-nodes are not
+    /// stored first in DATA, in order (the scene rep's payload relies on it).
+    pub fn with_root_bytes(prefix: &[u8]) -> Option<(Self, u64)> {
+        let h: VdtHeader = bytemuck::pod_read_unaligned(prefix.get(..112)?);
         let roots = h.root_count as usize;
-        let mnt = bytes.get(112..112usize.checked_add(roots.checked_mul(32)?)?)?;
-        let mut end = usize::try_from(h.data_offset).ok()?;
+        let mnt = prefix.get(112..112usize.checked_add(roots.checked_mul(32)?)?)?;
+        let mut end = 0u64;
         for c in mnt.chunks_exact(32) {
             let r: meta::MntRecord = bytemuck::pod_read_unaligned(c);
-            let at = usize::try_from(h.data_offset.checked_add(r.offset)?).ok()?;
-            if at != end {
-                return None; // root meta-nodes are stored first, in order
+            if r.offset != end {
+                return None;
             }
-            end = at.checked_add(r.len as usize)?;
+            end = end.checked_add(u64::from(r.len))?;
         }
+        Some((h, end))
+    }
+
+    /// Bytes of the file's prefix a scene rep covers: the in-core part
+    /// (header, MNT, permanent triangles) and the root meta-nodes —
+    /// everything the coarsest level needs. `None` when `bytes` is not that
+    /// long or its header and root records disagree.
+    pub fn rep_len(bytes: &[u8]) -> Option<usize> {
+        let (h, roots) = Self::with_root_bytes(bytes)?;
+        let end = usize::try_from(h.data_offset.checked_add(roots)?).ok()?;
         (end <= bytes.len()).then_some(end)
+    }
+
+    /// Holder bytes the external-memory store needs at least: the root
+    /// meta-nodes and room for three of the largest.
+    pub fn holder_need(&self, root_bytes: u64) -> u64 {
+        root_bytes + 3 * u64::from(self.max_meta_bytes)
     }
 }
 
@@ -289,7 +304,7 @@ impl VdtFile {
     /// Holder bytes the external-memory store needs at least: the root
     /// meta-nodes and room for three of the largest.
     pub fn holder_need(&self) -> u64 {
-        self.root_bytes() + 3 * u64::from(self.header.max_meta_bytes)
+        self.header.holder_need(self.root_bytes())
     }
 
     /// Reads one meta-node payload and decodes it (checksum checked).

@@ -11,7 +11,7 @@
 
 use std::io::{Seek, Write};
 
-use engine::format::{RepKind, RepRecord, SceneWriter};
+use engine::format::{RepKind, RepMesh, RepRecord, SceneWriter};
 use engine::vdt::file::encode;
 use engine::vdt::meta::levels_for_block;
 use engine::{FormatError, format::BLOCK};
@@ -43,9 +43,8 @@ pub fn tree_levels(mesh: &Mesh, lod: &LodParams, keep: usize) -> (Vec<Level>, Op
     }
     chain.truncate(keep);
     let limit = chain.last().expect("one level kept").error;
-    let positions: Vec<[f32; 3]> = mesh.positions.clone();
     let tree = build_tree(
-        &positions,
+        &mesh.positions,
         &mesh.indices,
         &VdtParams {
             metric: Metric::Quadric,
@@ -62,8 +61,15 @@ pub fn tree_levels(mesh: &Mesh, lod: &LodParams, keep: usize) -> (Vec<Level>, Op
         .fold(0.0f32, f32::max);
     let b = mesh.bounds();
     let (bbox_min, bbox_max) = b.to_arrays();
-    let extent = glam::Vec3::from(bbox_max) - glam::Vec3::from(bbox_min);
-    let quantisation = 0.5 * (extent / 65535.0).length();
+    // The codec's own error for a mesh spanning the tree's box (the drawn
+    // cut spans at most that box).
+    let quantisation = RepMesh::quantize(
+        &[bbox_min, bbox_max],
+        &[[0.0; 3]; 2],
+        &[[0; 4]; 2],
+        Vec::new(),
+    )
+    .quantization_error();
     let rep = TreeRep {
         bytes: encode(&tree, levels_for_block(BLOCK as usize)),
         error: coarsest + quantisation,
