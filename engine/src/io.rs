@@ -39,6 +39,12 @@ impl FileSource {
         Ok(Self { file, len })
     }
 
+    /// Reads from an open file.
+    pub fn from_file(file: File) -> io::Result<Self> {
+        let len = file.metadata()?.len();
+        Ok(Self { file, len })
+    }
+
     /// The underlying file.
     pub fn file(&self) -> &File {
         &self.file

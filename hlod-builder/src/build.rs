@@ -47,6 +47,9 @@ pub struct BuildParams {
     /// replaces the finer ones (a deep tree pages well: its root meta-nodes
     /// stay small).
     pub vdt_keep: usize,
+    /// Reps on disk in the spatial layout (`layout`: selection band, then
+    /// Morton order) rather than in the order they are made.
+    pub spatial_layout: bool,
 }
 
 impl Default for BuildParams {
@@ -60,6 +63,7 @@ impl Default for BuildParams {
             hlod_ratio: 0.5,
             vdt_tris: 0,
             vdt_keep: 2,
+            spatial_layout: true,
         }
     }
 }
@@ -190,9 +194,11 @@ pub fn build_file(
         .map_err(io_err)?;
     let sink = BufWriter::with_capacity(1 << 20, tmp.reopen().map_err(io_err)?);
     let mut stats =
-        build_scene(&imported, sink, params, progress).map_err(|source| BuildError::Write {
-            path: output.to_path_buf(),
-            source,
+        build_scene_staged(&imported, sink, params, progress, Some(dir)).map_err(|source| {
+            BuildError::Write {
+                path: output.to_path_buf(),
+                source,
+            }
         })?;
     crate::scenegen::glb::set_public_mode(tmp.as_file()).map_err(io_err)?;
     tmp.as_file().sync_all().map_err(io_err)?;
@@ -204,6 +210,43 @@ pub fn build_file(
 
 /// Builds an imported scene into `sink`.
 pub fn build_scene<W: Write + std::io::Seek>(
+    imported: &Imported,
+    sink: W,
+    params: &BuildParams,
+    progress: bool,
+) -> Result<BuildStats, FormatError> {
+    build_scene_staged(imported, sink, params, progress, None)
+}
+
+/// [`build_scene`]; for the spatial layout the reps are first written in the
+/// order they are made to a temporary file in `staging` (the system's
+/// temporary directory if `None`), then copied into `sink` in layout order.
+fn build_scene_staged<W: Write + std::io::Seek>(
+    imported: &Imported,
+    sink: W,
+    params: &BuildParams,
+    progress: bool,
+    staging: Option<&Path>,
+) -> Result<BuildStats, FormatError> {
+    if !params.spatial_layout {
+        return build_in_make_order(imported, sink, params, progress);
+    }
+    let file = match staging {
+        Some(dir) => tempfile::tempfile_in(dir)?,
+        None => tempfile::tempfile()?,
+    };
+    let stats = build_in_make_order(
+        imported,
+        BufWriter::with_capacity(1 << 20, file.try_clone()?),
+        params,
+        progress,
+    )?;
+    let staged = engine::format::SceneFile::from_source(engine::io::FileSource::from_file(file)?)?;
+    crate::layout::relayout(&staged, sink)?;
+    Ok(stats)
+}
+
+fn build_in_make_order<W: Write + std::io::Seek>(
     imported: &Imported,
     sink: W,
     params: &BuildParams,

@@ -11,11 +11,14 @@
 //!   [`engine::SceneWriter`], atomically and deterministically.
 //! - [`scenegen`]: scene generators (procedural plant, tiling of real models) and the
 //!   GLB writer they share.
+//! - [`layout`]: the order of the reps on disk (selection band, then Morton
+//!   order), so that the reps one frame misses are read without seeks.
 //! - [`summary`]: the Table-1-style summary printed by `build` and `info`.
 
 pub mod build;
 pub mod cluster;
 pub mod import;
+pub mod layout;
 pub mod lod;
 pub mod mesh;
 pub mod scenegen;

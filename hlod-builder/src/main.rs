@@ -32,6 +32,13 @@ enum Cmd {
         #[arg(long)]
         no_verify_data: bool,
     },
+    /// Rewrite a scene file with its reps in the spatial layout (selection
+    /// band, then Morton order; see `hlod_builder::layout`), atomically.
+    Relayout {
+        input: PathBuf,
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// Generate a glTF scene.
     #[command(subcommand)]
     Gen(GenCmd),
@@ -86,6 +93,11 @@ struct BuildArgs {
     /// How many of the coarsest static LODs such an object keeps below its tree.
     #[arg(long, default_value_t = 2)]
     vdt_keep: usize,
+    /// Order of the reps on disk: `spatial` (selection band, then Morton
+    /// order: one frame's misses lie close together) or `build` (the order
+    /// they are made: each leaf's chain, then the HLODs level by level).
+    #[arg(long, default_value = "spatial")]
+    layout: String,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
@@ -135,6 +147,11 @@ fn run(cli: Cli) -> Result<()> {
             file,
             no_verify_data,
         } => info(&file, !no_verify_data),
+        Cmd::Relayout { input, output } => {
+            hlod_builder::layout::relayout_file(&input, &output)?;
+            println!("{} -> {}", input.display(), output.display());
+            Ok(())
+        }
         Cmd::Gen(GenCmd::Plant {
             seed,
             objects,
@@ -220,6 +237,11 @@ fn build(a: BuildArgs) -> Result<()> {
         hlod_ratio: a.hlod_ratio,
         vdt_tris: a.vdt_tris,
         vdt_keep: a.vdt_keep,
+        spatial_layout: match a.layout.as_str() {
+            "spatial" => true,
+            "build" => false,
+            l => anyhow::bail!("--layout {l:?}: use spatial or build"),
+        },
     };
     let show = !a.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr());
     let stats = build_file(&a.input, &a.output, &params, show)?;

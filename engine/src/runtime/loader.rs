@@ -1,4 +1,9 @@
 //! P_I: the resident set, fetching (Stage II) and prefetching (Stages III, I).
+//!
+//! Reads go in file order and through short gaps (`span`): a rep stored
+//! just after the one being read costs its transfer, not a seek.
+
+mod span;
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -13,6 +18,7 @@ use crate::front::FrontIndex;
 use crate::io::ByteSource;
 use crate::prefetch::{Bins, ang_pr, priority};
 use crate::skeleton::{RepId, Skeleton};
+use span::{FileOrder, IoCosts};
 
 /// Why a rep was not loaded.
 enum LoadError {
@@ -67,10 +73,14 @@ pub(super) struct Loader {
     /// more time to prefetch).
     last_fetch_at: Option<Instant>,
     fetch_interval_s: f64,
-    /// Learnt read costs: seconds for a rep's first block (seek included, a
-    /// decaying maximum) and per further byte (a moving average).
-    first_block_s: f64,
-    per_byte_s: f64,
+    /// Learnt read costs (seek, transfer, break-even gap).
+    costs: IoCosts,
+    /// The reps in file order, for reads through gaps.
+    order: FileOrder,
+    /// A rep is a prefetch candidate when its stamp is `class_gen`.
+    queued: Vec<u32>,
+    /// Bytes of a gap being read through (discarded).
+    gap_buf: Vec<u8>,
     /// Miss accounting: `front_stamp[n]` / `above_stamp[n]` equal `pin_gen - 1`
     /// when node n was in the previous front / above a node that was.
     front_stamp: Vec<u32>,
@@ -94,6 +104,7 @@ impl Loader {
     ) -> Self {
         let n = skeleton.reps.len();
         let skeleton_nodes = skeleton.nodes.len();
+        let order = FileOrder::new(&skeleton);
         Self {
             bins: Bins::new(params.prefetch.bins, params.delta(), params.tolerance_px),
             skeleton,
@@ -122,8 +133,10 @@ impl Loader {
             next_fetch: None,
             last_fetch_at: None,
             fetch_interval_s: 0.0,
-            first_block_s: 0.0,
-            per_byte_s: 0.0,
+            costs: IoCosts::default(),
+            order,
+            queued: vec![0; n],
+            gap_buf: Vec::new(),
             front_stamp: vec![0; skeleton_nodes],
             above_stamp: vec![0; skeleton_nodes],
             speculative: vec![false; n],
@@ -292,6 +305,10 @@ impl Loader {
         // In file order: neighbouring reps are read without a seek.
         missing.sort_unstable_by_key(|&r| self.skeleton.reps[r as usize].offset);
         for r in missing {
+            if let Some(end) = self.costs.last_end() {
+                // Through a short gap (keeping prefetch candidates on the way).
+                self.bridge(end, self.skeleton.reps[r as usize].offset, Purpose::Demand);
+            }
             match self.load(r, Purpose::Demand) {
                 Ok(payload) => self.send(Reply::Draw {
                     rep: r,
@@ -444,18 +461,14 @@ impl Loader {
                 return Err(self.fail(r, &e.to_string()));
             }
             let took = t.elapsed();
-            self.learn(done == 0, end - done, took);
+            self.costs
+                .observe(rec.offset + done as u64, end - done, took);
             match purpose {
                 Purpose::Demand => self.stats.stage2_io_s += took.as_secs_f64(),
                 Purpose::Prefetch => self.stats.prefetch_io_s += took.as_secs_f64(),
             }
             done = end;
-            if purpose == Purpose::Prefetch
-                && done < buf.len()
-                && self.pending.is_none()
-                && let Ok(c) = self.cmds.try_recv()
-            {
-                self.pending = Some(c);
+            if purpose == Purpose::Prefetch && done < buf.len() && self.preempted() {
                 self.resident -= len;
                 return Err(LoadError::Preempted);
             }
@@ -490,28 +503,34 @@ impl Loader {
         }
     }
 
-    /// Updates the read-cost estimates from one block read.
-    fn learn(&mut self, first: bool, bytes: usize, took: Duration) {
-        const A: f64 = 0.2;
-        let t = took.as_secs_f64();
-        if first {
-            // A decaying maximum: a seek may come with any read, and a
-            // prefetch still running when the fetch command arrives stalls P_R.
-            self.first_block_s = t.max(self.first_block_s * 0.995);
-        } else if bytes > 0 {
-            self.per_byte_s += A * (t / bytes as f64 - self.per_byte_s);
+    /// Whether a new fetch command arrived (kept as pending).
+    fn preempted(&mut self) -> bool {
+        if self.pending.is_none()
+            && let Ok(c) = self.cmds.try_recv()
+        {
+            self.pending = Some(c);
+            return true;
         }
+        false
     }
 
     /// Whether a prefetch read of `len` bytes should finish before the next
     /// fetch command is due.
     fn fits_in_frame(&self, len: u64) -> bool {
+        let rest = len.saturating_sub(self.params.block_bytes as u64) as f64;
+        self.ends_in_time(self.costs.first_block_s + rest * self.costs.per_byte_s)
+    }
+
+    /// The same for `len` bytes read on from where the last read ended.
+    fn fits_in_frame_sequential(&self, len: u64) -> bool {
+        self.ends_in_time(len as f64 * self.costs.per_byte_s)
+    }
+
+    fn ends_in_time(&self, need_s: f64) -> bool {
         let Some(due) = self.next_fetch else {
             return true;
         };
-        let rest = len.saturating_sub(self.params.block_bytes as u64) as f64;
-        let need = self.first_block_s + rest * self.per_byte_s;
-        Instant::now() + Duration::from_secs_f64(need) <= due
+        Instant::now() + Duration::from_secs_f64(need_s) <= due
     }
 
     fn fail(&mut self, r: RepId, why: &str) -> LoadError {
@@ -573,7 +592,9 @@ impl Loader {
             // how far PAR/CHD classification reaches.
             prio = prio.min(self.params.delta());
         }
-        self.bins.push(r, prio, depth);
+        if self.bins.push(r, prio, depth) {
+            self.queued[r as usize] = self.class_gen;
+        }
     }
 
     /// PREFETCH: the best classified rep, its parent and children.
@@ -594,8 +615,10 @@ impl Loader {
                 self.bins.clear();
                 return;
             } else {
-                match self.load(x, Purpose::Prefetch) {
-                    Ok(_) | Err(LoadError::NoRoom) | Err(LoadError::Failed) => {}
+                let got = self.load(x, Purpose::Prefetch);
+                // On through the file to the next candidates, while cheap.
+                match got.and_then(|_| self.extend_prefetch(x)) {
+                    Ok(()) | Err(LoadError::NoRoom) | Err(LoadError::Failed) => {}
                     Err(LoadError::Preempted) => return,
                 }
             }

@@ -124,6 +124,9 @@ pub struct RuntimeParams {
     /// (raised to what its root meta-nodes need, capped at its meta-node
     /// data), out of the same footprint as the reps.
     pub vdt_pool_bytes: u64,
+    /// Longest gap between two wanted reps that P_I reads through instead
+    /// of seeking over (the break-even gap is learnt; this caps it; 0: off).
+    pub coalesce_max_gap: u64,
 }
 
 impl Default for RuntimeParams {
@@ -140,6 +143,7 @@ impl Default for RuntimeParams {
             prefetch: PrefetchParams::default(),
             frame_period_s: 0.0,
             vdt_pool_bytes: 4 << 20,
+            coalesce_max_gap: 1 << 20,
         }
     }
 }
@@ -257,6 +261,8 @@ struct StageStats {
     miss_new: u32,
     stage2_io_s: f64,
     prefetch_io_s: f64,
+    /// Bytes of gaps read through (not kept).
+    skipped_bytes: u64,
     /// Prefetch candidates waiting in the bins at the end of Stage II.
     prefetch_queue: u32,
 }
@@ -520,6 +526,7 @@ impl Walkthrough {
         m.miss_new = stats.miss_new;
         m.stage2_io_ms = stats.stage2_io_s * 1e3;
         m.prefetch_io_ms = stats.prefetch_io_s * 1e3;
+        m.skipped_bytes = stats.skipped_bytes;
         m.prefetch_queue = stats.prefetch_queue;
         m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok(m)

@@ -98,6 +98,10 @@ struct Args {
     /// or a percentage of the scene data), out of the footprint.
     #[arg(long, default_value = "4MiB")]
     vdt_pool: String,
+    /// Longest gap P_I reads through rather than seeking over (the
+    /// break-even gap is learnt; this caps it); 0 turns coalescing off.
+    #[arg(long, default_value = "1MiB")]
+    coalesce_gap: String,
 }
 
 fn main() -> ExitCode {
@@ -140,6 +144,10 @@ fn run(a: Args) -> Result<()> {
     let skel = Arc::new(scene.skeleton().clone());
     let data_bytes: u64 = skel.reps.iter().map(|r| r.extent()).sum();
     let vdt_pool = engine::cli::parse_budget(&a.vdt_pool, data_bytes)?;
+    let coalesce_gap = match a.coalesce_gap.trim() {
+        "0" | "off" => 0,
+        g => engine::cli::parse_budget(g, data_bytes).context("--coalesce-gap")?,
+    };
     let budgets: Vec<u64> = match &a.budgets {
         Some(list) => list
             .split(',')
@@ -187,6 +195,7 @@ fn run(a: Args) -> Result<()> {
         },
         frame_period_s: if a.fps > 0.0 { 1.0 / a.fps } else { 0.0 },
         vdt_pool_bytes: vdt_pool,
+        coalesce_max_gap: coalesce_gap,
         ..RuntimeParams::default()
     };
     println!(

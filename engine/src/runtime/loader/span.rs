@@ -1,0 +1,248 @@
+//! Read coalescing: P_I reads through a short gap between two reps it wants
+//! instead of seeking over it, when the gap costs less to transfer than a
+//! seek, and keeps the prefetch candidates it passes on the way.
+//!
+//! The break-even gap is learnt from P_I's own reads ([`IoCosts`]): reads
+//! that continue where the previous one ended give the time per byte, the
+//! others the seek time. On a seek-bound disk (the `hdd` model: 10 ms, 30
+//! MB/s) it is ≈ 300 KB, on an SSD ≈ 50 KB, on a warm page cache ≈ 0.
+
+use std::time::{Duration, Instant};
+
+use super::{LoadError, Loader, Purpose};
+use crate::skeleton::{RepId, Skeleton};
+
+/// Learnt read costs of the rep source.
+#[derive(Clone, Debug, Default)]
+pub(super) struct IoCosts {
+    /// A decaying maximum of the time of a read that seeks.
+    pub(super) first_block_s: f64,
+    /// A moving average of seconds per byte of reads that do not seek.
+    pub(super) per_byte_s: f64,
+    /// A moving average of the seek time (a seeking read less its transfer).
+    pub(super) seek_s: f64,
+    /// Where P_I's last read ended.
+    last_end: Option<u64>,
+}
+
+impl IoCosts {
+    const A: f64 = 0.2;
+
+    /// Learns from one read of `bytes` at `offset` that took `took`.
+    pub(super) fn observe(&mut self, offset: u64, bytes: usize, took: Duration) {
+        let t = took.as_secs_f64();
+        if self.last_end == Some(offset) {
+            if bytes > 0 {
+                let x = t / bytes as f64;
+                if self.per_byte_s > 0.0 {
+                    self.per_byte_s += Self::A * (x - self.per_byte_s);
+                } else {
+                    self.per_byte_s = x;
+                }
+            }
+        } else {
+            // A decaying maximum: a seek may come with any read, and a
+            // prefetch still running when the fetch command arrives stalls P_R.
+            self.first_block_s = t.max(self.first_block_s * 0.995);
+            let seek = (t - bytes as f64 * self.per_byte_s).max(0.0);
+            self.seek_s += Self::A * (seek - self.seek_s);
+        }
+        self.last_end = Some(offset + bytes as u64);
+    }
+
+    /// Where P_I's last read ended (the next read there does not seek).
+    pub(super) fn last_end(&self) -> Option<u64> {
+        self.last_end
+    }
+
+    /// The longest gap worth reading through rather than seeking over,
+    /// capped at `cap` (0 turns coalescing off). Until a transfer rate has
+    /// been seen, `probe` bytes.
+    pub(super) fn max_gap(&self, cap: u64, probe: u64) -> u64 {
+        if cap == 0 {
+            return 0;
+        }
+        if self.per_byte_s <= 0.0 {
+            return probe.min(cap);
+        }
+        let g = self.seek_s / self.per_byte_s;
+        if g.is_finite() {
+            (g as u64).min(cap)
+        } else {
+            cap
+        }
+    }
+}
+
+/// The reps in file order.
+#[derive(Clone, Debug, Default)]
+pub(super) struct FileOrder {
+    by_offset: Vec<RepId>,
+    pos: Vec<u32>,
+}
+
+impl FileOrder {
+    pub(super) fn new(skeleton: &Skeleton) -> Self {
+        let mut by_offset: Vec<RepId> = (0..skeleton.reps.len() as RepId).collect();
+        by_offset.sort_by_key(|&r| (skeleton.reps[r as usize].offset, r));
+        let mut pos = vec![0u32; by_offset.len()];
+        for (i, &r) in by_offset.iter().enumerate() {
+            pos[r as usize] = i as u32;
+        }
+        Self { by_offset, pos }
+    }
+
+    /// The reps stored after `r`, nearest first.
+    pub(super) fn after(&self, r: RepId) -> &[RepId] {
+        &self.by_offset[self.pos[r as usize] as usize + 1..]
+    }
+
+    /// The reps stored at or after byte `offset`, nearest first.
+    pub(super) fn starting_at(&self, skeleton: &Skeleton, offset: u64) -> &[RepId] {
+        let i = self
+            .by_offset
+            .partition_point(|&r| skeleton.reps[r as usize].offset < offset);
+        &self.by_offset[i..]
+    }
+}
+
+impl Loader {
+    /// The longest gap P_I reads through now (64 KiB until a transfer rate
+    /// has been seen: reading through is how it is first seen).
+    pub(super) fn max_gap(&self) -> u64 {
+        self.costs.max_gap(self.params.coalesce_max_gap, 64 << 10)
+    }
+
+    /// Whether rep `g` is a prefetch candidate worth keeping when a read
+    /// passes over it: queued in this classification and not resident.
+    fn wanted(&self, g: RepId) -> bool {
+        self.params.mode == super::Mode::Pre
+            && self.queued[g as usize] == self.class_gen
+            && self.data[g as usize].is_none()
+            && !self.failed[g as usize]
+    }
+
+    /// Reads from `from` to `to` when the last read ended at `from` and the
+    /// gap is short enough: keeps the prefetch candidates on the way (as
+    /// prefetched reps, under the budget) and discards the other bytes.
+    /// Returns whether the next read at `to` continues without a seek.
+    pub(super) fn bridge(&mut self, from: u64, to: u64, purpose: Purpose) -> bool {
+        if to <= from || self.costs.last_end() != Some(from) || to - from > self.max_gap() {
+            return to == from && self.costs.last_end() == Some(from);
+        }
+        let order = std::mem::take(&mut self.order);
+        let mut cur = from;
+        let mut ok = true;
+        for &g in order.starting_at(&self.skeleton, from) {
+            let rec = self.skeleton.reps[g as usize];
+            if rec.offset >= to {
+                break;
+            }
+            if rec.offset + rec.extent() > to || !self.wanted(g) {
+                continue;
+            }
+            if !self.skip(cur, rec.offset, purpose) {
+                ok = false;
+                break;
+            }
+            match self.load(g, Purpose::Prefetch) {
+                Ok(_) => cur = rec.offset + u64::from(rec.len),
+                Err(LoadError::NoRoom) | Err(LoadError::Failed) => {}
+                Err(LoadError::Preempted) => {
+                    ok = false;
+                    break;
+                }
+            }
+        }
+        self.order = order;
+        ok && self.skip(cur, to, purpose)
+    }
+
+    /// Reads `from..to` and discards it (the bytes of a gap); false when the
+    /// read failed or was preempted by a fetch command.
+    pub(super) fn skip(&mut self, from: u64, to: u64, purpose: Purpose) -> bool {
+        let mut at = from;
+        while at < to {
+            let n = (to - at).min(self.params.block_bytes as u64) as usize;
+            self.gap_buf.resize(n, 0);
+            let t = Instant::now();
+            let mut buf = std::mem::take(&mut self.gap_buf);
+            let res = self.source.read_at(at, &mut buf[..n]);
+            self.gap_buf = buf;
+            if res.is_err() {
+                return false;
+            }
+            let took = t.elapsed();
+            self.costs.observe(at, n, took);
+            match purpose {
+                Purpose::Demand => self.stats.stage2_io_s += took.as_secs_f64(),
+                Purpose::Prefetch => self.stats.prefetch_io_s += took.as_secs_f64(),
+            }
+            self.stats.skipped_bytes += n as u64;
+            at += n as u64;
+            if purpose == Purpose::Prefetch && at < to && self.preempted() {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Continues a prefetch read past rep `x` to the next candidates stored
+    /// within the break-even gap, while each read still ends before the next
+    /// fetch command is due.
+    pub(super) fn extend_prefetch(&mut self, mut x: RepId) -> Result<(), LoadError> {
+        loop {
+            let rec = self.skeleton.reps[x as usize];
+            let end = rec.offset + u64::from(rec.len);
+            let gap = self.max_gap();
+            let next = self
+                .order
+                .after(x)
+                .iter()
+                .take_while(|&&g| self.skeleton.reps[g as usize].offset <= end + gap)
+                .copied()
+                .find(|&g| self.wanted(g));
+            let Some(n) = next else { return Ok(()) };
+            let nrec = self.skeleton.reps[n as usize];
+            let bytes = nrec.offset - end + u64::from(nrec.len);
+            if !self.fits_in_frame_sequential(bytes)
+                || !self.bridge(end, nrec.offset, Purpose::Prefetch)
+            {
+                return Ok(());
+            }
+            self.load(n, Purpose::Prefetch)?;
+            x = n;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn learns_seek_and_transfer_and_the_break_even_gap() {
+        let mut c = IoCosts::default();
+        assert_eq!(
+            c.max_gap(1 << 20, 4096),
+            4096,
+            "probe until a rate is known"
+        );
+        assert_eq!(c.max_gap(0, 4096), 0, "off");
+        // 10 ms seeks, 30 MB/s: a seeking 30 KB read takes 11 ms, a
+        // sequential 30 KB read 1 ms.
+        let ms = |x: f64| Duration::from_secs_f64(x / 1e3);
+        let mut at = 0u64;
+        for _ in 0..60 {
+            at += 1_000_000;
+            c.observe(at, 30_000, ms(11.0));
+            c.observe(at + 30_000, 30_000, ms(1.0));
+        }
+        assert!((c.per_byte_s * 30e6 - 1.0).abs() < 1e-3);
+        assert!((c.seek_s - 0.010).abs() < 1e-4, "{}", c.seek_s);
+        let g = c.max_gap(1 << 20, 4096);
+        assert!((290_000..310_000).contains(&g), "{g}");
+        assert_eq!(c.max_gap(100_000, 4096), 100_000, "capped");
+        assert!((c.first_block_s - 0.011).abs() < 1e-3);
+    }
+}
