@@ -58,16 +58,18 @@ pub struct FrameMetrics {
     pub vdt_ms: f64,
     /// Bytes of gaps P_I read through instead of seeking over (not kept).
     pub skipped_bytes: u64,
+    /// Prefetch reads continued after a fetch command preempted them.
+    pub resumed: u32,
 }
 
 /// CSV header matching [`FrameMetrics::csv_row`].
-pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes";
+pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed";
 
 impl FrameMetrics {
     /// One CSV line (no newline).
     pub fn csv_row(&self) -> String {
         format!(
-            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{:.3},{}",
+            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{:.3},{},{}",
             self.frame,
             self.mode,
             self.frame_ms,
@@ -102,7 +104,8 @@ impl FrameMetrics {
             self.metas_loaded,
             self.vdt_bytes,
             self.vdt_ms,
-            self.skipped_bytes
+            self.skipped_bytes,
+            self.resumed
         )
     }
 }

@@ -18,7 +18,7 @@ use crate::front::FrontIndex;
 use crate::io::ByteSource;
 use crate::prefetch::{Bins, ang_pr, priority};
 use crate::skeleton::{RepId, Skeleton};
-use span::{FileOrder, IoCosts};
+use span::{FileOrder, IoCosts, Partial};
 
 /// Why a rep was not loaded.
 enum LoadError {
@@ -81,6 +81,8 @@ pub(super) struct Loader {
     queued: Vec<u32>,
     /// Bytes of a gap being read through (discarded).
     gap_buf: Vec<u8>,
+    /// A prefetch read preempted by a fetch command (its bytes reserved).
+    partial: Option<Partial>,
     /// Miss accounting: `front_stamp[n]` / `above_stamp[n]` equal `pin_gen - 1`
     /// when node n was in the previous front / above a node that was.
     front_stamp: Vec<u32>,
@@ -137,6 +139,7 @@ impl Loader {
             order,
             queued: vec![0; n],
             gap_buf: Vec::new(),
+            partial: None,
             front_stamp: vec![0; skeleton_nodes],
             above_stamp: vec![0; skeleton_nodes],
             speculative: vec![false; n],
@@ -221,8 +224,23 @@ impl Loader {
         }
         self.failed[r as usize] = true;
         self.stats.read_errors += 1;
+        if self.partial.as_ref().is_some_and(|p| p.rep == r) {
+            self.cancel_partial();
+        }
         if self.data[r as usize].is_some() {
             self.drop_rep(r);
+        }
+    }
+
+    /// Gives up the preempted prefetch read, if any, and its reservation;
+    /// returns whether there was one.
+    fn cancel_partial(&mut self) -> bool {
+        match self.partial.take() {
+            Some(p) => {
+                self.resident -= self.cost(p.rep);
+                true
+            }
+            None => false,
         }
     }
 
@@ -435,21 +453,34 @@ impl Loader {
         }
         let rec = self.skeleton.reps[r as usize];
         let len = self.cost(r);
-        if !self.make_room(len, purpose) {
-            return Err(LoadError::NoRoom);
-        }
-        // Reserve first: bytes being loaded count against the budget.
-        self.resident += len;
-        self.stats.max_resident_bytes = self.stats.max_resident_bytes.max(self.resident);
         // In core, a tree comes whole (P_R then refines it without paging).
         let read = if self.params.mode == Mode::Incore && rec.is_vdt() {
             rec.extent()
         } else {
             u64::from(rec.len)
         };
-        let mut buf = vec![0u8; read as usize];
+        let (mut buf, mut done) = match self.partial.take_if(|p| p.rep == r) {
+            // A preempted prefetch read of this rep goes on (still reserved).
+            Some(p) => {
+                self.stats.resumed += 1;
+                (p.buf, p.done)
+            }
+            None => {
+                if !self.make_room(len, purpose)
+                    && !(purpose == Purpose::Demand
+                        && self.partial.is_some()
+                        && self.cancel_partial()
+                        && self.make_room(len, purpose))
+                {
+                    return Err(LoadError::NoRoom);
+                }
+                // Reserve first: bytes being loaded count against the budget.
+                self.resident += len;
+                self.stats.max_resident_bytes = self.stats.max_resident_bytes.max(self.resident);
+                (vec![0u8; read as usize], 0)
+            }
+        };
         let block = self.params.block_bytes;
-        let mut done = 0usize;
         while done < buf.len() {
             let end = (done + block).min(buf.len());
             let t = Instant::now();
@@ -463,13 +494,23 @@ impl Loader {
             let took = t.elapsed();
             self.costs
                 .observe(rec.offset + done as u64, end - done, took);
+            let n = (end - done) as u64;
             match purpose {
-                Purpose::Demand => self.stats.stage2_io_s += took.as_secs_f64(),
-                Purpose::Prefetch => self.stats.prefetch_io_s += took.as_secs_f64(),
+                Purpose::Demand => {
+                    self.stats.stage2_io_s += took.as_secs_f64();
+                    self.stats.stage2_bytes += n;
+                }
+                Purpose::Prefetch => {
+                    self.stats.prefetch_io_s += took.as_secs_f64();
+                    self.stats.prefetch_bytes += n;
+                }
             }
             done = end;
             if purpose == Purpose::Prefetch && done < buf.len() && self.preempted() {
-                self.resident -= len;
+                // Kept, reserved, to go on when P_I is idle again (or when
+                // Stage II needs it).
+                self.cancel_partial();
+                self.partial = Some(Partial { rep: r, buf, done });
                 return Err(LoadError::Preempted);
             }
         }
@@ -480,12 +521,8 @@ impl Loader {
         let payload: Arc<[u8]> = buf.into();
         self.data[r as usize] = Some(payload.clone());
         self.list.access(r);
-        match purpose {
-            Purpose::Demand => self.stats.stage2_bytes += read,
-            Purpose::Prefetch => {
-                self.stats.prefetch_bytes += read;
-                self.set_speculative(r, true);
-            }
+        if purpose == Purpose::Prefetch {
+            self.set_speculative(r, true);
         }
         Ok(payload)
     }
@@ -564,12 +601,17 @@ impl Loader {
         self.index
             .compute(view, &enlarged, self.params.tolerance_px, &mut front);
         for &r in &front {
-            self.classify(r, 0);
+            self.classify(r, 0, r);
         }
         self.scratch = front;
     }
 
-    fn classify(&mut self, r: RepId, depth: u8) {
+    /// Bins rep `r`, found `depth` PAR/CHD steps from the F_I front, by the
+    /// projected error of `by`: `r` itself for front reps and coarser
+    /// candidates, the front rep it refines for a finer one (a child is
+    /// needed when its parent's error reaches ε, and its own error, often
+    /// 0 for a finest LOD, says nothing about when).
+    fn classify(&mut self, r: RepId, depth: u8, by: RepId) {
         if self.classified[r as usize] == self.class_gen {
             return;
         }
@@ -578,7 +620,8 @@ impl Loader {
             return;
         };
         let node = self.skeleton.reps[r as usize].node;
-        let eps = self.index.projected_error(&view, node, r);
+        let by_node = self.skeleton.reps[by as usize].node;
+        let eps = self.index.projected_error(&view, by_node, by);
         let (mn, mx) = self.index.node_box(node);
         let theta = own.angle_to_box(mn, mx);
         let mut prio = priority(
@@ -597,33 +640,47 @@ impl Loader {
         }
     }
 
-    /// PREFETCH: the best classified rep, its parent and children.
+    /// PREFETCH: loads the best classified rep, then classifies its parent
+    /// and children (to the prefetch depth), which are loaded in their turn
+    /// when their bins come up: a neighbour is read only when its own
+    /// priority says it is needed soon (P_I has few seeks per frame).
     fn prefetch_step(&mut self) {
+        if let Some(r) = self.partial.as_ref().map(|p| p.rep) {
+            if self.queued[r as usize] == self.class_gen {
+                let _ = self
+                    .load(r, Purpose::Prefetch)
+                    .and_then(|_| self.extend_prefetch(r));
+                return;
+            }
+            self.cancel_partial();
+        }
         let Some((o, depth)) = self.bins.pop() else {
             return;
         };
-        let mut todo = vec![o];
-        if depth < self.params.prefetch.depth {
-            todo.extend(self.skeleton.par(o));
-            todo.extend(self.skeleton.chd(o));
-        }
-        for (k, x) in todo.into_iter().enumerate() {
-            if self.data[x as usize].is_some() {
-                self.list.access(x);
-            } else if !self.fits_in_frame(u64::from(self.skeleton.reps[x as usize].len)) {
-                // Not before the next frame: wait for its fetch command.
-                self.bins.clear();
-                return;
-            } else {
-                let got = self.load(x, Purpose::Prefetch);
-                // On through the file to the next candidates, while cheap.
-                match got.and_then(|_| self.extend_prefetch(x)) {
-                    Ok(()) | Err(LoadError::NoRoom) | Err(LoadError::Failed) => {}
-                    Err(LoadError::Preempted) => return,
-                }
+        if self.data[o as usize].is_some() {
+            self.list.access(o);
+        } else if !self.fits_in_frame(
+            u64::from(self.skeleton.reps[o as usize].len).min(self.params.block_bytes as u64),
+        ) {
+            // Not even its first block (the seek) before the next frame: wait
+            // for its fetch command. (A longer read is preempted and goes on
+            // later.)
+            self.bins.clear();
+            return;
+        } else {
+            let got = self.load(o, Purpose::Prefetch);
+            // On through the file to the next candidates, while cheap.
+            match got.and_then(|_| self.extend_prefetch(o)) {
+                Ok(()) | Err(LoadError::NoRoom) | Err(LoadError::Failed) => {}
+                Err(LoadError::Preempted) => return,
             }
-            if k > 0 {
-                self.classify(x, depth + 1);
+        }
+        if depth < self.params.prefetch.depth {
+            if let Some(p) = self.skeleton.par(o) {
+                self.classify(p, depth + 1, p);
+            }
+            for c in self.skeleton.chd(o) {
+                self.classify(c, depth + 1, o);
             }
         }
     }

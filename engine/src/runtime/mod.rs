@@ -263,6 +263,8 @@ struct StageStats {
     prefetch_io_s: f64,
     /// Bytes of gaps read through (not kept).
     skipped_bytes: u64,
+    /// Preempted prefetch reads continued.
+    resumed: u32,
     /// Prefetch candidates waiting in the bins at the end of Stage II.
     prefetch_queue: u32,
 }
@@ -527,6 +529,7 @@ impl Walkthrough {
         m.stage2_io_ms = stats.stage2_io_s * 1e3;
         m.prefetch_io_ms = stats.prefetch_io_s * 1e3;
         m.skipped_bytes = stats.skipped_bytes;
+        m.resumed = stats.resumed;
         m.prefetch_queue = stats.prefetch_queue;
         m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok(m)

@@ -74,6 +74,15 @@ impl IoCosts {
     }
 }
 
+/// A prefetch read that a fetch command preempted: the bytes read so far.
+/// Its rep's footprint stays reserved until it completes or is given up.
+#[derive(Debug)]
+pub(super) struct Partial {
+    pub(super) rep: RepId,
+    pub(super) buf: Vec<u8>,
+    pub(super) done: usize,
+}
+
 /// The reps in file order.
 #[derive(Clone, Debug, Default)]
 pub(super) struct FileOrder {
