@@ -466,12 +466,12 @@ impl Loader {
                 (p.buf, p.done)
             }
             None => {
-                if !self.make_room(len, purpose)
-                    && !(purpose == Purpose::Demand
-                        && self.partial.is_some()
+                // Stage II may take the room of a preempted prefetch read.
+                let room = self.make_room(len, purpose)
+                    || (purpose == Purpose::Demand
                         && self.cancel_partial()
-                        && self.make_room(len, purpose))
-                {
+                        && self.make_room(len, purpose));
+                if !room {
                     return Err(LoadError::NoRoom);
                 }
                 // Reserve first: bytes being loaded count against the budget.
