@@ -232,18 +232,6 @@ impl Loader {
         }
     }
 
-    /// Gives up the preempted prefetch read, if any, and its reservation;
-    /// returns whether there was one.
-    fn cancel_partial(&mut self) -> bool {
-        match self.partial.take() {
-            Some(p) => {
-                self.resident -= self.cost(p.rep);
-                true
-            }
-            None => false,
-        }
-    }
-
     /// Removes resident rep `r` and tells P_R.
     fn drop_rep(&mut self, r: RepId) {
         self.set_speculative(r, false);
@@ -540,36 +528,6 @@ impl Loader {
         }
     }
 
-    /// Whether a new fetch command arrived (kept as pending).
-    fn preempted(&mut self) -> bool {
-        if self.pending.is_none()
-            && let Ok(c) = self.cmds.try_recv()
-        {
-            self.pending = Some(c);
-            return true;
-        }
-        false
-    }
-
-    /// Whether a prefetch read of `len` bytes should finish before the next
-    /// fetch command is due.
-    fn fits_in_frame(&self, len: u64) -> bool {
-        let rest = len.saturating_sub(self.params.block_bytes as u64) as f64;
-        self.ends_in_time(self.costs.first_block_s + rest * self.costs.per_byte_s)
-    }
-
-    /// The same for `len` bytes read on from where the last read ended.
-    fn fits_in_frame_sequential(&self, len: u64) -> bool {
-        self.ends_in_time(len as f64 * self.costs.per_byte_s)
-    }
-
-    fn ends_in_time(&self, need_s: f64) -> bool {
-        let Some(due) = self.next_fetch else {
-            return true;
-        };
-        Instant::now() + Duration::from_secs_f64(need_s) <= due
-    }
-
     fn fail(&mut self, r: RepId, why: &str) -> LoadError {
         self.failed[r as usize] = true;
         self.stats.read_errors += 1;
@@ -646,7 +604,9 @@ impl Loader {
     /// priority says it is needed soon (P_I has few seeks per frame).
     fn prefetch_step(&mut self) {
         if let Some(r) = self.partial.as_ref().map(|p| p.rep) {
-            if self.queued[r as usize] == self.class_gen {
+            // Still a candidate: binned by this classification or the one
+            // before (a child is binned again only when its parent comes up).
+            if self.class_gen.wrapping_sub(self.queued[r as usize]) <= 1 {
                 let _ = self
                     .load(r, Purpose::Prefetch)
                     .and_then(|_| self.extend_prefetch(r));

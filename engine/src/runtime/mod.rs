@@ -6,8 +6,10 @@
 //! missing rep (L_O) as P_I loads it (Stage II), and returns the frame's
 //! metrics. P_I (the `loader` module) owns the resident set: the StartTail
 //! InMemoryList, the byte budget (never exceeded: reps being loaded count),
-//! preemptible block-wise loading, and in `pre` mode binned priority
-//! prefetching with the enlarged frustum in Stages III and I.
+//! preemptible block-wise loading (a preempted prefetch read is kept and
+//! resumed), reads in file order through gaps shorter than the learnt
+//! break-even gap, and in `pre` mode binned priority prefetching with the
+//! enlarged frustum in Stages III and I.
 //!
 //! A view-dependence tree rep (`trees`) is loaded by P_I like any rep; P_R
 //! refines it once per frame it is drawn, its meta-node store's bytes

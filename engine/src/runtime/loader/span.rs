@@ -6,6 +6,10 @@
 //! that continue where the previous one ended give the time per byte, the
 //! others the seek time. On a seek-bound disk (the `hdd` model: 10 ms, 30
 //! MB/s) it is ≈ 300 KB, on an SSD ≈ 50 KB, on a warm page cache ≈ 0.
+//!
+//! Also here: the timing checks that decide whether a prefetch read starts
+//! before the next fetch command, preemption, and the [`Partial`] read that
+//! a preemption leaves to be resumed.
 
 use std::time::{Duration, Instant};
 
@@ -194,6 +198,48 @@ impl Loader {
             }
         }
         true
+    }
+
+    /// Gives up the preempted prefetch read, if any, and its reservation;
+    /// returns whether there was one.
+    pub(super) fn cancel_partial(&mut self) -> bool {
+        match self.partial.take() {
+            Some(p) => {
+                self.resident -= self.cost(p.rep);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Whether a new fetch command arrived (kept as pending).
+    pub(super) fn preempted(&mut self) -> bool {
+        if self.pending.is_none()
+            && let Ok(c) = self.cmds.try_recv()
+        {
+            self.pending = Some(c);
+            return true;
+        }
+        false
+    }
+
+    /// Whether a prefetch read of `len` bytes should finish before the next
+    /// fetch command is due.
+    pub(super) fn fits_in_frame(&self, len: u64) -> bool {
+        let rest = len.saturating_sub(self.params.block_bytes as u64) as f64;
+        self.ends_in_time(self.costs.first_block_s + rest * self.costs.per_byte_s)
+    }
+
+    /// The same for `len` bytes read on from where the last read ended.
+    pub(super) fn fits_in_frame_sequential(&self, len: u64) -> bool {
+        self.ends_in_time(len as f64 * self.costs.per_byte_s)
+    }
+
+    pub(super) fn ends_in_time(&self, need_s: f64) -> bool {
+        let Some(due) = self.next_fetch else {
+            return true;
+        };
+        Instant::now() + Duration::from_secs_f64(need_s) <= due
     }
 
     /// Continues a prefetch read past rep `x` to the next candidates stored
