@@ -34,9 +34,7 @@ pub struct FileSource {
 impl FileSource {
     /// Opens `path` for reading.
     pub fn open(path: &Path) -> io::Result<Self> {
-        let file = File::open(path)?;
-        let len = file.metadata()?.len();
-        Ok(Self { file, len })
+        Self::from_file(File::open(path)?)
     }
 
     /// Reads from an open file.

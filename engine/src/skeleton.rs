@@ -277,15 +277,20 @@ impl Skeleton {
                 }
             }
         }
-        let mut by_offset: Vec<u32> = (0..self.reps.len() as u32).collect();
-        by_offset.sort_by_key(|&r| self.reps[r as usize].offset);
-        for w in by_offset.windows(2) {
+        for w in self.reps_in_file_order().windows(2) {
             let (a, b) = (&self.reps[w[0] as usize], &self.reps[w[1] as usize]);
             if a.offset + a.extent() > b.offset {
                 return Err(ValidationError::Overlap { a: w[0], b: w[1] });
             }
         }
         Ok(())
+    }
+
+    /// The reps in the order their payloads are stored (ties by id).
+    pub fn reps_in_file_order(&self) -> Vec<RepId> {
+        let mut by_offset: Vec<RepId> = (0..self.reps.len() as RepId).collect();
+        by_offset.sort_by_key(|&r| (self.reps[r as usize].offset, r));
+        by_offset
     }
 
     fn validate_errors_and_boxes(&self) -> Result<(), ValidationError> {

@@ -86,32 +86,17 @@ pub fn relayout_file(
     input: &std::path::Path,
     output: &std::path::Path,
 ) -> Result<(), crate::BuildError> {
-    let io_err = |source| crate::BuildError::Io {
-        path: output.to_path_buf(),
-        source,
-    };
     let src = SceneFile::open(input).map_err(|source| crate::BuildError::Write {
         path: input.to_path_buf(),
         source,
     })?;
-    let dir = match output.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => std::path::Path::new("."),
-    };
-    let tmp = tempfile::Builder::new()
-        .prefix(".hlod-relayout-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(io_err)?;
-    let sink = std::io::BufWriter::with_capacity(1 << 20, tmp.reopen().map_err(io_err)?);
-    relayout(&src, sink).map_err(|source| crate::BuildError::Write {
+    crate::scenegen::glb::write_atomically(output, |w| {
+        relayout(&src, w).map(|_| ()).map_err(std::io::Error::other)
+    })
+    .map_err(|source| crate::BuildError::Io {
         path: output.to_path_buf(),
         source,
-    })?;
-    crate::scenegen::glb::set_public_mode(tmp.as_file()).map_err(io_err)?;
-    tmp.as_file().sync_all().map_err(io_err)?;
-    tmp.persist(output).map_err(|e| io_err(e.error))?;
-    Ok(())
+    })
 }
 
 #[cfg(test)]

@@ -335,20 +335,8 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
 /// Writes `bytes` to `out` through a temporary file in the same folder.
 fn write_vdt(out: &std::path::Path, bytes: &[u8]) -> Result<()> {
     use std::io::Write;
-    let dir = out
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(std::path::Path::new("."));
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".hlod-vdt-")
-        .tempfile_in(dir)
-        .with_context(|| format!("cannot write in {}", dir.display()))?;
-    tmp.write_all(bytes)?;
-    hlod_builder::scenegen::glb::set_public_mode(tmp.as_file())?;
-    tmp.as_file().sync_all()?;
-    tmp.persist(out)
-        .map_err(|e| anyhow::anyhow!("{}: {}", out.display(), e.error))?;
-    Ok(())
+    hlod_builder::scenegen::glb::write_atomically(out, |w| w.write_all(bytes))
+        .with_context(|| format!("cannot write {}", out.display()))
 }
 
 fn vdt_report(

@@ -126,7 +126,8 @@ impl Loader {
             resident: 0,
             stats: StageStats::default(),
             classified: vec![0; n],
-            class_gen: 0,
+            // Stamps of 0 never match: nothing is classified or queued yet.
+            class_gen: 1,
             class_view: None,
             theta0: 0.0,
             theta1: 1.0,
@@ -619,9 +620,7 @@ impl Loader {
         };
         if self.data[o as usize].is_some() {
             self.list.access(o);
-        } else if !self.fits_in_frame(
-            u64::from(self.skeleton.reps[o as usize].len).min(self.params.block_bytes as u64),
-        ) {
+        } else if !self.first_block_in_time() {
             // Not even its first block (the seek) before the next frame: wait
             // for its fetch command. (A longer read is preempted and goes on
             // later.)

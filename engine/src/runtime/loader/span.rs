@@ -96,8 +96,7 @@ pub(super) struct FileOrder {
 
 impl FileOrder {
     pub(super) fn new(skeleton: &Skeleton) -> Self {
-        let mut by_offset: Vec<RepId> = (0..skeleton.reps.len() as RepId).collect();
-        by_offset.sort_by_key(|&r| (skeleton.reps[r as usize].offset, r));
+        let by_offset = skeleton.reps_in_file_order();
         let mut pos = vec![0u32; by_offset.len()];
         for (i, &r) in by_offset.iter().enumerate() {
             pos[r as usize] = i as u32;
@@ -129,8 +128,7 @@ impl Loader {
     /// Whether rep `g` is a prefetch candidate worth keeping when a read
     /// passes over it: queued in this classification and not resident.
     fn wanted(&self, g: RepId) -> bool {
-        self.params.mode == super::Mode::Pre
-            && self.queued[g as usize] == self.class_gen
+        self.queued[g as usize] == self.class_gen
             && self.data[g as usize].is_none()
             && !self.failed[g as usize]
     }
@@ -223,11 +221,11 @@ impl Loader {
         false
     }
 
-    /// Whether a prefetch read of `len` bytes should finish before the next
-    /// fetch command is due.
-    pub(super) fn fits_in_frame(&self, len: u64) -> bool {
-        let rest = len.saturating_sub(self.params.block_bytes as u64) as f64;
-        self.ends_in_time(self.costs.first_block_s + rest * self.costs.per_byte_s)
+    /// Whether a prefetch read's first block (a seek and up to a block; the
+    /// rest may be preempted and resumed) ends before the next fetch command
+    /// is due.
+    pub(super) fn first_block_in_time(&self) -> bool {
+        self.ends_in_time(self.costs.first_block_s)
     }
 
     /// The same for `len` bytes read on from where the last read ended.
@@ -260,8 +258,10 @@ impl Loader {
             let Some(n) = next else { return Ok(()) };
             let nrec = self.skeleton.reps[n as usize];
             let bytes = nrec.offset - end + u64::from(nrec.len);
-            if !self.fits_in_frame_sequential(bytes)
-                || !self.bridge(end, nrec.offset, Purpose::Prefetch)
+            // `n` is the first candidate after `x`: the gap holds none.
+            if self.costs.last_end() != Some(end)
+                || !self.fits_in_frame_sequential(bytes)
+                || !self.skip(end, nrec.offset, Purpose::Prefetch)
             {
                 return Ok(());
             }
