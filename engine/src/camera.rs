@@ -84,8 +84,15 @@ impl View {
         self.width_px as f32 / self.height_px.max(1) as f32
     }
 
-    /// The view frustum, its half-angles widened by `margin_rad`.
+    /// The view frustum, its half-angles widened by `margin_rad`. Once the
+    /// wider half-angle reaches 90° the frustum would no longer be convex:
+    /// the widened frustum is then all around the eye ([`Frustum::all_around`]).
     pub fn frustum(&self, margin_rad: f32) -> Frustum {
+        let half_x0 = ((0.5 * self.pose.fov_y_deg.to_radians()).tan() * self.aspect()).atan();
+        let half_y0 = 0.5 * self.pose.fov_y_deg.to_radians();
+        if margin_rad > 0.0 && half_x0.max(half_y0) + margin_rad >= std::f32::consts::FRAC_PI_2 {
+            return Frustum::all_around(self.pose.position, self.pose.forward());
+        }
         let half_y = (0.5 * self.pose.fov_y_deg.to_radians() + margin_rad).min(1.55);
         let tan_y = half_y.tan();
         let tan_x =
@@ -134,6 +141,17 @@ pub struct Frustum {
 }
 
 impl Frustum {
+    /// Every direction from `eye`: no plane culls (each is `0 . p + 0 >= 0`);
+    /// `forward` still gives the angles of [`Frustum::angle_to_box`].
+    pub fn all_around(eye: Vec3, forward: Vec3) -> Self {
+        Self {
+            planes: [(Vec3::ZERO, 0.0); 6],
+            eye,
+            forward,
+            half_angle: std::f32::consts::PI,
+        }
+    }
+
     /// Whether the box may intersect the frustum (conservative).
     #[inline]
     pub fn intersects(&self, min: Vec3, max: Vec3) -> bool {
@@ -395,6 +413,19 @@ mod tests {
         let (a, b) = unit(Vec3::new(0.0, 9.0, -10.0));
         assert!(v.frustum(30f32.to_radians()).intersects(a, b));
         assert!((f.angle_to_box(a, b) - (9.0f32 / 10.0).atan()).abs() < 1e-4);
+    }
+
+    #[test]
+    fn a_frustum_widened_past_a_half_space_is_all_around() {
+        let v = view(Pose::look_at(Vec3::ZERO, Vec3::NEG_Z, 60.0));
+        let behind = (Vec3::new(-0.5, -0.5, 9.5), Vec3::new(0.5, 0.5, 10.5));
+        assert!(!v.frustum(40f32.to_radians()).intersects(behind.0, behind.1));
+        let all = v.frustum(std::f32::consts::PI);
+        assert!(all.intersects(behind.0, behind.1));
+        assert_eq!(all.half_angle, std::f32::consts::PI);
+        assert!((all.angle_to_box(behind.0, behind.1) - std::f32::consts::PI).abs() < 1e-3);
+        // Up to 90°, the planes still cull what is behind.
+        assert!(!v.frustum(0.7).intersects(behind.0, behind.1));
     }
 
     #[test]

@@ -3,7 +3,9 @@
 use std::process::ExitCode;
 
 /// Sets up logging to stderr (warnings of the builder and the I/O thread),
-/// runs `body`, and turns an error into a message and exit code 2.
+/// runs `body`, and turns an error into a message and exit code 2. Output
+/// piped into a reader that stops early (`| head`) ends the program quietly
+/// with exit code 141, as SIGPIPE would, instead of a panic message.
 pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
@@ -11,13 +13,31 @@ pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
         .without_time()
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
-    match body() {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !is_broken_pipe(info.payload()) {
+            hook(info);
+        }
+    }));
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(body)) {
+        Ok(Ok(())) => ExitCode::SUCCESS,
+        Ok(Err(e)) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
         }
+        Err(p) if is_broken_pipe(p.as_ref()) => ExitCode::from(141),
+        Err(p) => std::panic::resume_unwind(p),
     }
+}
+
+/// Whether a panic is `println!` failing on a closed pipe.
+fn is_broken_pipe(payload: &(dyn std::any::Any + Send)) -> bool {
+    let msg = payload
+        .downcast_ref::<String>()
+        .map(String::as_str)
+        .or_else(|| payload.downcast_ref::<&str>().copied())
+        .unwrap_or("");
+    msg.starts_with("failed printing to stdout") && msg.contains("Broken pipe")
 }
 
 /// Parses a memory footprint: bytes (with B/KB/MB/GB/KiB/MiB/GiB) or a

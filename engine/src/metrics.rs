@@ -60,16 +60,22 @@ pub struct FrameMetrics {
     pub skipped_bytes: u64,
     /// Prefetch reads continued after a fetch command preempted them.
     pub resumed: u32,
+    /// Bytes of prefetched reps evicted before they were ever drawn.
+    pub wasted_bytes: u64,
+    /// Reads that did not continue where P_I's previous read ended, in
+    /// Stage II and in prefetching.
+    pub stage2_seeks: u32,
+    pub prefetch_seeks: u32,
 }
 
 /// CSV header matching [`FrameMetrics::csv_row`].
-pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed";
+pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks";
 
 impl FrameMetrics {
     /// One CSV line (no newline).
     pub fn csv_row(&self) -> String {
         format!(
-            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{:.3},{},{}",
+            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{:.3},{},{},{},{},{}",
             self.frame,
             self.mode,
             self.frame_ms,
@@ -105,7 +111,10 @@ impl FrameMetrics {
             self.vdt_bytes,
             self.vdt_ms,
             self.skipped_bytes,
-            self.resumed
+            self.resumed,
+            self.wasted_bytes,
+            self.stage2_seeks,
+            self.prefetch_seeks
         )
     }
 }

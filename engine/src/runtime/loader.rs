@@ -4,6 +4,7 @@
 //! just after the one being read costs its transfer, not a seek.
 
 mod span;
+mod sweep;
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -92,6 +93,11 @@ pub(super) struct Loader {
     speculative_bytes: u64,
     /// Evicted since the last reply: sent ahead of the next one.
     evicted: Vec<RepId>,
+    /// The small reps of the F_I front not resident, in file order, and the
+    /// offset where the sweep through them goes on (`sweep.rs`).
+    sweep: Vec<RepId>,
+    sweep_at: u64,
+    sweep_turn: bool,
 }
 
 impl Loader {
@@ -146,6 +152,9 @@ impl Loader {
             speculative: vec![false; n],
             speculative_bytes: 0,
             evicted: Vec::new(),
+            sweep: Vec::new(),
+            sweep_at: 0,
+            sweep_turn: false,
         }
     }
 
@@ -235,6 +244,9 @@ impl Loader {
 
     /// Removes resident rep `r` and tells P_R.
     fn drop_rep(&mut self, r: RepId) {
+        if self.speculative[r as usize] {
+            self.stats.wasted_bytes += u64::from(self.skeleton.reps[r as usize].len);
+        }
         self.set_speculative(r, false);
         self.data[r as usize] = None;
         self.list.remove(r);
@@ -480,19 +492,11 @@ impl Loader {
                 self.resident -= len;
                 return Err(self.fail(r, &e.to_string()));
             }
-            let took = t.elapsed();
-            self.costs
-                .observe(rec.offset + done as u64, end - done, took);
+            self.observe(rec.offset + done as u64, end - done, t.elapsed(), purpose);
             let n = (end - done) as u64;
             match purpose {
-                Purpose::Demand => {
-                    self.stats.stage2_io_s += took.as_secs_f64();
-                    self.stats.stage2_bytes += n;
-                }
-                Purpose::Prefetch => {
-                    self.stats.prefetch_io_s += took.as_secs_f64();
-                    self.stats.prefetch_bytes += n;
-                }
+                Purpose::Demand => self.stats.stage2_bytes += n,
+                Purpose::Prefetch => self.stats.prefetch_bytes += n,
             }
             done = end;
             if purpose == Purpose::Prefetch && done < buf.len() && self.preempted() {
@@ -562,6 +566,7 @@ impl Loader {
         for &r in &front {
             self.classify(r, 0, r);
         }
+        self.plan_sweep(&front);
         self.scratch = front;
     }
 
@@ -604,6 +609,10 @@ impl Loader {
     /// when their bins come up: a neighbour is read only when its own
     /// priority says it is needed soon (P_I has few seeks per frame).
     fn prefetch_step(&mut self) {
+        self.sweep_turn = !self.sweep_turn;
+        if self.sweep_turn && self.partial.is_none() && self.sweep_step() {
+            return;
+        }
         if let Some(r) = self.partial.as_ref().map(|p| p.rep) {
             // Still a candidate: binned by this classification or the one
             // before (a child is binned again only when its parent comes up).
@@ -634,6 +643,12 @@ impl Loader {
                 Err(LoadError::Preempted) => return,
             }
         }
+        self.classify_neighbours(o, depth);
+    }
+
+    /// Classifies the parent and children of rep `o` (found `depth` steps
+    /// from the front), up to the prefetch depth.
+    fn classify_neighbours(&mut self, o: RepId, depth: u8) {
         if depth < self.params.prefetch.depth {
             if let Some(p) = self.skeleton.par(o) {
                 self.classify(p, depth + 1, p);

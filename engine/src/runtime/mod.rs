@@ -86,6 +86,9 @@ pub struct PrefetchParams {
     /// not drawn since); at the cap a prefetch may evict only speculative reps,
     /// so speculation cannot flush what was drawn before (prefetch pollution).
     pub speculative_share: f32,
+    /// Reps of the F_I front up to this many bytes are also read by the
+    /// sweep, in file order (0: off; see `loader/sweep.rs`).
+    pub sweep_bytes: u32,
 }
 
 impl Default for PrefetchParams {
@@ -98,6 +101,7 @@ impl Default for PrefetchParams {
             max_margin_deg: 60.0,
             depth: 1,
             speculative_share: 0.15,
+            sweep_bytes: 0,
         }
     }
 }
@@ -205,8 +209,8 @@ impl RuntimeParams {
         if !(p.speculative_share > 0.0 && p.speculative_share <= 1.0) {
             return bad("the speculative share must be in (0, 1]");
         }
-        if p.max_margin_deg > 80.0 {
-            return bad("F_I margin at most 80 degrees");
+        if p.max_margin_deg > 180.0 {
+            return bad("F_I margin at most 180 degrees");
         }
         Ok(())
     }
@@ -267,6 +271,11 @@ struct StageStats {
     skipped_bytes: u64,
     /// Preempted prefetch reads continued.
     resumed: u32,
+    /// Bytes of prefetched reps evicted before P_R drew them.
+    wasted_bytes: u64,
+    /// Reads that did not continue where the previous one ended.
+    stage2_seeks: u32,
+    prefetch_seeks: u32,
     /// Prefetch candidates waiting in the bins at the end of Stage II.
     prefetch_queue: u32,
 }
@@ -532,6 +541,9 @@ impl Walkthrough {
         m.prefetch_io_ms = stats.prefetch_io_s * 1e3;
         m.skipped_bytes = stats.skipped_bytes;
         m.resumed = stats.resumed;
+        m.wasted_bytes = stats.wasted_bytes;
+        m.stage2_seeks = stats.stage2_seeks;
+        m.prefetch_seeks = stats.prefetch_seeks;
         m.prefetch_queue = stats.prefetch_queue;
         m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok(m)

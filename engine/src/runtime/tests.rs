@@ -349,3 +349,40 @@ fn reading_through_short_gaps_saves_seeks_and_changes_nothing_drawn() {
     assert!(total(&runs[3].2, |f| f.skipped_bytes) > 0);
     assert_eq!(total(&runs[2].2, |f| f.skipped_bytes), 0);
 }
+
+#[test]
+fn an_all_around_f_i_and_the_sweep_leave_nothing_missing_after_a_sudden_turn() {
+    let (skel, src) = wide(64);
+    let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    // The camera rests in the row of leaves looking along it, then turns
+    // round in one frame.
+    let half = std::f32::consts::FRAC_PI_2;
+    let mut poses = vec![pose(30.0, 0.5, 0.5, -half); 12];
+    poses.push(pose(30.0, 0.5, 0.5, half));
+    let run = |margin: f32, sweep_bytes: u32| {
+        let p = RuntimeParams {
+            frame_period_s: 0.05,
+            prefetch: PrefetchParams {
+                margin_deg: margin,
+                max_margin_deg: margin,
+                speculative_share: 1.0,
+                sweep_bytes,
+                ..PrefetchParams::default()
+            },
+            ..params(Mode::Pre, total)
+        };
+        let mut walk = Walkthrough::start(skel.clone(), src.clone(), p).unwrap();
+        let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 20.0).unwrap();
+        check_frames(&frames, total);
+        frames
+    };
+    for sweep in [0, 1 << 20] {
+        let all_around = run(180.0, sweep);
+        let last = all_around.last().unwrap();
+        assert!(last.front_reps > 0);
+        assert_eq!(last.missing_reps, 0, "sweep {sweep}: behind was prefetched");
+    }
+    // The control: F_I 30° wider than F_R does not reach behind the camera.
+    let narrow = run(30.0, 0);
+    assert!(narrow.last().unwrap().missing_reps > 0);
+}

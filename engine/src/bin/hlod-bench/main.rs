@@ -3,6 +3,7 @@
 //! plots (`plots`) and, with the wgpu renderer, the image quality of the
 //! out-of-core frames against the in-core ones (PSNR on sampled frames).
 
+mod bounds;
 mod plots;
 
 use std::path::{Path, PathBuf};
@@ -85,12 +86,25 @@ struct Args {
     /// Base widening of F_I, degrees.
     #[arg(long, default_value_t = 30.0)]
     margin: f32,
+    /// Widest F_I, degrees (180: all around the eye).
+    #[arg(long, default_value_t = 60.0)]
+    max_margin: f32,
     /// Levels of PAR/CHD prefetched.
     #[arg(long, default_value_t = 1)]
     prefetch_depth: u8,
+    /// Sweep: reps of F_I's front up to this size (bytes, KiB, MiB) are also
+    /// read in file order, alternating with the bins; 0 = off.
+    #[arg(long, default_value = "0")]
+    sweep: String,
     /// Largest share of the budget for prefetched reps not yet drawn.
     #[arg(long, default_value_t = 0.15)]
     speculative_share: f32,
+    /// Print what any fetching policy could do on this path (from the
+    /// fronts alone: the first-time reps, the oracle's working set, the disk
+    /// time of reading the path's reps in file order, demand fetching with
+    /// optimal eviction), write it to OUT/bounds.md, and run nothing.
+    #[arg(long)]
+    bounds: bool,
     /// Output directory for CSVs, the summary, plots and the path used.
     #[arg(long, default_value = "out/bench")]
     out: PathBuf,
@@ -148,6 +162,11 @@ fn run(a: Args) -> Result<()> {
         "0" | "off" => 0,
         g => engine::cli::parse_budget(g, data_bytes).context("--coalesce-gap")?,
     };
+    let sweep_bytes = match a.sweep.trim() {
+        "0" | "off" => 0,
+        g => u32::try_from(engine::cli::parse_budget(g, data_bytes).context("--sweep")?)
+            .context("--sweep: at most 4 GiB")?,
+    };
     let budgets: Vec<u64> = match &a.budgets {
         Some(list) => list
             .split(',')
@@ -189,8 +208,10 @@ fn run(a: Args) -> Result<()> {
             delta_px: a.delta,
             bins: a.bins,
             margin_deg: a.margin,
+            max_margin_deg: a.max_margin,
             depth: a.prefetch_depth,
             speculative_share: a.speculative_share,
+            sweep_bytes,
             ..PrefetchParams::default()
         },
         frame_period_s: if a.fps > 0.0 { 1.0 / a.fps } else { 0.0 },
@@ -211,6 +232,12 @@ fn run(a: Args) -> Result<()> {
         a.disk,
         a.tolerance
     );
+    if a.bounds {
+        let text = bounds::bounds(&skel, &poses, &params, &budgets, disk, a.fps);
+        std::fs::write(a.out.join("bounds.md"), &text)?;
+        println!("{text}");
+        return Ok(());
+    }
     let period_ms = if a.fps > 0.0 {
         1000.0 / f64::from(a.fps)
     } else {

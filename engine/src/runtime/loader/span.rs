@@ -119,6 +119,23 @@ impl FileOrder {
 }
 
 impl Loader {
+    /// Accounts one read of `n` bytes at `offset` (time, seek) and learns
+    /// the read costs from it.
+    pub(super) fn observe(&mut self, offset: u64, n: usize, took: Duration, purpose: Purpose) {
+        let seek = u32::from(self.costs.last_end() != Some(offset));
+        match purpose {
+            Purpose::Demand => {
+                self.stats.stage2_io_s += took.as_secs_f64();
+                self.stats.stage2_seeks += seek;
+            }
+            Purpose::Prefetch => {
+                self.stats.prefetch_io_s += took.as_secs_f64();
+                self.stats.prefetch_seeks += seek;
+            }
+        }
+        self.costs.observe(offset, n, took);
+    }
+
     /// The longest gap P_I reads through now (64 KiB until a transfer rate
     /// has been seen: reading through is how it is first seen).
     pub(super) fn max_gap(&self) -> u64 {
@@ -127,7 +144,7 @@ impl Loader {
 
     /// Whether rep `g` is a prefetch candidate worth keeping when a read
     /// passes over it: queued in this classification and not resident.
-    fn wanted(&self, g: RepId) -> bool {
+    pub(super) fn wanted(&self, g: RepId) -> bool {
         self.queued[g as usize] == self.class_gen
             && self.data[g as usize].is_none()
             && !self.failed[g as usize]
@@ -183,12 +200,7 @@ impl Loader {
             if res.is_err() {
                 return false;
             }
-            let took = t.elapsed();
-            self.costs.observe(at, n, took);
-            match purpose {
-                Purpose::Demand => self.stats.stage2_io_s += took.as_secs_f64(),
-                Purpose::Prefetch => self.stats.prefetch_io_s += took.as_secs_f64(),
-            }
+            self.observe(at, n, t.elapsed(), purpose);
             self.stats.skipped_bytes += n as u64;
             at += n as u64;
             if purpose == Purpose::Prefetch && at < to && self.preempted() {

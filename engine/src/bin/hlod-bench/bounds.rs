@@ -1,0 +1,189 @@
+//! `--bounds`: what any fetching policy could do on a path, from the fronts
+//! alone (no run): how much the path must read at least, whether an oracle
+//! prefetcher's working set fits the footprint, and how long the disk model
+//! needs to read it. It separates the limits of the budget and of the disk
+//! from those of prediction.
+
+use std::collections::{BTreeSet, HashSet};
+use std::fmt::Write as _;
+
+use engine::camera::Pose;
+use engine::disk::DiskModel;
+use engine::front::FrontIndex;
+use engine::runtime::RuntimeParams;
+use engine::skeleton::{RepId, Skeleton};
+
+const MIB: f64 = 1048576.0;
+/// A rep under this size costs its seek rather than its transfer.
+const SMALL: u64 = 8 << 10;
+
+/// The bounds table (markdown) for `poses` under `params`, for each budget.
+pub fn bounds(
+    skel: &Skeleton,
+    poses: &[Pose],
+    params: &RuntimeParams,
+    budgets: &[u64],
+    disk: Option<DiskModel>,
+    fps: f32,
+) -> String {
+    let index = FrontIndex::new(skel);
+    let len = |r: RepId| u64::from(skel.reps[r as usize].len);
+    let fronts: Vec<Vec<RepId>> = poses
+        .iter()
+        .map(|p| {
+            let view = engine::camera::View {
+                pose: *p,
+                width_px: params.width_px,
+                height_px: params.height_px,
+                near: params.near,
+                far: params.far,
+            };
+            let mut out = Vec::new();
+            index.compute(&view, &view.frustum(0.0), params.tolerance_px, &mut out);
+            out
+        })
+        .collect();
+    let bytes = |f: &[RepId]| f.iter().map(|&r| len(r)).sum::<u64>();
+    let mut sizes: Vec<u64> = fronts.iter().map(|f| bytes(f)).collect();
+    sizes.sort_unstable();
+    let mut seen: HashSet<RepId> = fronts.first().into_iter().flatten().copied().collect();
+    let mut new_reps: Vec<RepId> = Vec::new();
+    for f in fronts.iter().skip(1) {
+        new_reps.extend(f.iter().filter(|&&r| seen.insert(r)));
+    }
+    let small: Vec<RepId> = new_reps
+        .iter()
+        .copied()
+        .filter(|&r| len(r) < SMALL)
+        .collect();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "front: median {:.2} MiB, max {:.2} MiB; {} reps drawn after the first frame for the first time ({:.2} MiB: the least that fetching on demand alone reads), {} of them under {} KiB ({:.2} MiB)",
+        sizes[sizes.len() / 2] as f64 / MIB,
+        sizes[sizes.len() - 1] as f64 / MIB,
+        new_reps.len(),
+        bytes(&new_reps) as f64 / MIB,
+        small.len(),
+        SMALL >> 10,
+        bytes(&small) as f64 / MIB
+    );
+    // The oracle's working set: the fronts of the next second together.
+    let w = (fps.max(1.0) as usize).max(1);
+    let mut max_u = 0u64;
+    let mut sum_u = 0u64;
+    let mut n_u = 0u64;
+    for t in (0..fronts.len()).step_by(w) {
+        let u: HashSet<RepId> = fronts[t..(t + w).min(fronts.len())]
+            .iter()
+            .flatten()
+            .copied()
+            .collect();
+        let b = u.iter().map(|&r| len(r)).sum::<u64>();
+        max_u = max_u.max(b);
+        sum_u += b;
+        n_u += 1;
+    }
+    let _ = writeln!(
+        s,
+        "fronts of the next {w} frames together: mean {:.2} MiB, max {:.2} MiB",
+        sum_u as f64 / n_u.max(1) as f64 / MIB,
+        max_u as f64 / MIB
+    );
+    if let Some(d) = disk {
+        // Every rep the path draws, read once in file order: runs joined
+        // through gaps shorter than the break-even gap.
+        let mut all: Vec<RepId> = fronts.iter().flatten().copied().collect();
+        all.sort_unstable_by_key(|&r| skel.reps[r as usize].offset);
+        all.dedup();
+        let seek = d.latency.as_secs_f64();
+        let gap = (seek * d.bytes_per_sec) as u64;
+        let (mut runs, mut read, mut end) = (0u64, 0u64, None::<u64>);
+        for &r in &all {
+            let rec = skel.reps[r as usize];
+            match end {
+                Some(e) if rec.offset <= e + gap => read += rec.offset.saturating_sub(e),
+                _ => runs += 1,
+            }
+            read += u64::from(rec.len);
+            end = Some(rec.offset + u64::from(rec.len));
+        }
+        let one_seek_each = all.len() as f64 * seek + bytes(&all) as f64 / d.bytes_per_sec;
+        let _ = writeln!(
+            s,
+            "disk: the {} reps the path draws take {:.1} s read one seek each, {:.1} s in {runs} runs in file order ({:.2} MiB read through gaps under {} KiB); the path lasts {:.1} s",
+            all.len(),
+            one_seek_each,
+            runs as f64 * seek + read as f64 / d.bytes_per_sec,
+            read as f64 / MIB,
+            gap >> 10,
+            fronts.len() as f64 / f64::from(fps.max(1e-3))
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n| budget MiB | demand fetch, optimal eviction (MiB) | reads |\n|---:|---:|---:|"
+    );
+    for &b in budgets {
+        let (mib, reads) = belady(skel, &fronts, b);
+        let _ = writeln!(s, "| {:.2} | {:.2} | {reads} |", b as f64 / MIB, mib);
+    }
+    s
+}
+
+/// Demand fetching with Belady's eviction (the resident rep used again
+/// last goes first; a greedy bound with reps of different sizes): the
+/// Stage II bytes after the first frame and the number of reps read.
+fn belady(skel: &Skeleton, fronts: &[Vec<RepId>], budget: u64) -> (f64, u64) {
+    let n = skel.reps.len();
+    let len = |r: RepId| u64::from(skel.reps[r as usize].len);
+    let mut uses: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for (t, f) in fronts.iter().enumerate() {
+        for &r in f {
+            uses[r as usize].push(t as u32);
+        }
+    }
+    let mut cursor = vec![0usize; n];
+    let next_of = |r: RepId, t: usize, cursor: &mut Vec<usize>| {
+        let u = &uses[r as usize];
+        let c = &mut cursor[r as usize];
+        while *c < u.len() && u[*c] as usize <= t {
+            *c += 1;
+        }
+        u.get(*c).map_or(u32::MAX, |&x| x)
+    };
+    // Resident reps keyed by their next use.
+    let mut by_next: BTreeSet<(u32, RepId)> = BTreeSet::new();
+    let mut key: Vec<Option<u32>> = vec![None; n];
+    let (mut used, mut fetched, mut reads) = (0u64, 0u64, 0u64);
+    for (t, f) in fronts.iter().enumerate() {
+        // This frame's reps are pinned: rekey them past this frame.
+        for &r in f {
+            if let Some(k) = key[r as usize] {
+                by_next.remove(&(k, r));
+            }
+        }
+        for &r in f {
+            if key[r as usize].is_none() {
+                let need = len(r);
+                while used + need > budget {
+                    let Some(v) = by_next.pop_last() else { break };
+                    key[v.1 as usize] = None;
+                    used -= len(v.1);
+                }
+                used += need;
+                if t > 0 {
+                    fetched += need;
+                    reads += 1;
+                }
+            }
+            key[r as usize] = Some(u32::MAX);
+        }
+        for &r in f {
+            let k = next_of(r, t, &mut cursor);
+            key[r as usize] = Some(k);
+            by_next.insert((k, r));
+        }
+    }
+    (fetched as f64 / MIB, reads)
+}
