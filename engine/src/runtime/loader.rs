@@ -1,7 +1,9 @@
 //! P_I: the resident set, fetching (Stage II) and prefetching (Stages III, I).
 //!
 //! Reads go in file order and through short gaps (`span`): a rep stored
-//! just after the one being read costs its transfer, not a seek.
+//! just after the one being read costs its transfer, not a seek. With
+//! `PrefetchParams::sweep_bytes`, the small reps of F_I's front are also
+//! read in file order, alternating with the bins (`sweep`).
 
 mod span;
 mod sweep;

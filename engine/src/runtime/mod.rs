@@ -9,7 +9,8 @@
 //! preemptible block-wise loading (a preempted prefetch read is kept and
 //! resumed), reads in file order through gaps shorter than the learnt
 //! break-even gap, and in `pre` mode binned priority prefetching with the
-//! enlarged frustum in Stages III and I.
+//! enlarged frustum in Stages III and I (up to all around the eye), with an
+//! optional sweep of F_I's small reps in file order.
 //!
 //! A view-dependence tree rep (`trees`) is loaded by P_I like any rep; P_R
 //! refines it once per frame it is drawn, its meta-node store's bytes
