@@ -84,20 +84,18 @@ impl View {
         self.width_px as f32 / self.height_px.max(1) as f32
     }
 
-    /// The view frustum, its half-angles widened by `margin_rad`. Once the
-    /// wider half-angle reaches 90° the frustum would no longer be convex:
-    /// the widened frustum is then all around the eye ([`Frustum::all_around`]).
+    /// The view frustum, its half-angles widened by `margin_rad` and kept
+    /// below 90° (a wide frustum tends to the half-space in front). A
+    /// margin of 90° or more reaches behind the eye, where planes cannot
+    /// follow: the frustum is then all around it ([`Frustum::all_around`]).
     pub fn frustum(&self, margin_rad: f32) -> Frustum {
-        let half_x0 = ((0.5 * self.pose.fov_y_deg.to_radians()).tan() * self.aspect()).atan();
-        let half_y0 = 0.5 * self.pose.fov_y_deg.to_radians();
-        if margin_rad > 0.0 && half_x0.max(half_y0) + margin_rad >= std::f32::consts::FRAC_PI_2 {
+        if margin_rad >= std::f32::consts::FRAC_PI_2 {
             return Frustum::all_around(self.pose.position, self.pose.forward());
         }
-        let half_y = (0.5 * self.pose.fov_y_deg.to_radians() + margin_rad).min(1.55);
-        let tan_y = half_y.tan();
-        let tan_x =
-            ((0.5 * self.pose.fov_y_deg.to_radians()).tan() * self.aspect()).atan() + margin_rad;
-        let tan_x = tan_x.min(1.55).tan();
+        let half_y0 = 0.5 * self.pose.fov_y_deg.to_radians();
+        let half_x0 = (half_y0.tan() * self.aspect()).atan();
+        let tan_y = (half_y0 + margin_rad).min(1.55).tan();
+        let tan_x = (half_x0 + margin_rad).min(1.55).tan();
         let r = self.pose.rotation;
         let (right, up, fwd) = (r * Vec3::X, r * Vec3::Y, r * Vec3::NEG_Z);
         let eye = self.pose.position;
@@ -125,7 +123,7 @@ impl View {
             planes,
             eye,
             forward: fwd,
-            half_angle: half_y.max(tan_x.atan()),
+            half_angle: tan_y.atan().max(tan_x.atan()),
         }
     }
 }
@@ -416,7 +414,7 @@ mod tests {
     }
 
     #[test]
-    fn a_frustum_widened_past_a_half_space_is_all_around() {
+    fn a_frustum_widened_by_90_degrees_or_more_is_all_around() {
         let v = view(Pose::look_at(Vec3::ZERO, Vec3::NEG_Z, 60.0));
         let behind = (Vec3::new(-0.5, -0.5, 9.5), Vec3::new(0.5, 0.5, 10.5));
         assert!(!v.frustum(40f32.to_radians()).intersects(behind.0, behind.1));
@@ -424,8 +422,8 @@ mod tests {
         assert!(all.intersects(behind.0, behind.1));
         assert_eq!(all.half_angle, std::f32::consts::PI);
         assert!((all.angle_to_box(behind.0, behind.1) - std::f32::consts::PI).abs() < 1e-3);
-        // Up to 90°, the planes still cull what is behind.
-        assert!(!v.frustum(0.7).intersects(behind.0, behind.1));
+        // Below 90°, the planes still cull what is behind.
+        assert!(!v.frustum(1.5).intersects(behind.0, behind.1));
     }
 
     #[test]

@@ -79,7 +79,7 @@ pub struct PrefetchParams {
     pub margin_deg: f32,
     /// Extra widening per degree of camera turn per frame.
     pub margin_per_deg_turn: f32,
-    /// Largest widening, in degrees.
+    /// Largest widening, in degrees (90 or more: F_I all around the eye).
     pub max_margin_deg: f32,
     /// Levels of PAR/CHD followed from the front.
     pub depth: u8,
@@ -214,6 +214,17 @@ impl RuntimeParams {
             return bad("F_I margin at most 180 degrees");
         }
         Ok(())
+    }
+
+    /// The view of a pose on this viewport.
+    pub fn view(&self, pose: &Pose) -> View {
+        View {
+            pose: *pose,
+            width_px: self.width_px,
+            height_px: self.height_px,
+            near: self.near,
+            far: self.far,
+        }
     }
 
     fn delta(&self) -> f32 {
@@ -386,13 +397,7 @@ impl Walkthrough {
 
     /// The view for a pose under these parameters.
     pub fn view(&self, pose: &Pose) -> View {
-        View {
-            pose: *pose,
-            width_px: self.params.width_px,
-            height_px: self.params.height_px,
-            near: self.params.near,
-            far: self.params.far,
-        }
+        self.params.view(pose)
     }
 
     /// Renders one frame from `pose`.

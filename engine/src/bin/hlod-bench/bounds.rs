@@ -31,13 +31,7 @@ pub fn bounds(
     let fronts: Vec<Vec<RepId>> = poses
         .iter()
         .map(|p| {
-            let view = engine::camera::View {
-                pose: *p,
-                width_px: params.width_px,
-                height_px: params.height_px,
-                near: params.near,
-                far: params.far,
-            };
+            let view = params.view(p);
             let mut out = Vec::new();
             index.compute(&view, &view.frustum(0.0), params.tolerance_px, &mut out);
             out

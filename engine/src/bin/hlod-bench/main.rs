@@ -86,7 +86,7 @@ struct Args {
     /// Base widening of F_I, degrees.
     #[arg(long, default_value_t = 30.0)]
     margin: f32,
-    /// Widest F_I, degrees (180: all around the eye).
+    /// Widest F_I, degrees (90 or more: all around the eye).
     #[arg(long, default_value_t = 60.0)]
     max_margin: f32,
     /// Levels of PAR/CHD prefetched.

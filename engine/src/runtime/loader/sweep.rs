@@ -19,6 +19,9 @@ impl Loader {
     pub(super) fn plan_sweep(&mut self, front: &[RepId]) {
         self.sweep.clear();
         let small = u64::from(self.params.prefetch.sweep_bytes);
+        if small == 0 {
+            return;
+        }
         for &r in front {
             if self.data[r as usize].is_none() && !self.failed[r as usize] && self.cost(r) <= small
             {
