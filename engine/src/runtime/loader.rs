@@ -5,6 +5,7 @@
 //! `PrefetchParams::sweep_bytes`, the small reps of F_I's front are also
 //! read in file order, alternating with the bins (`sweep`).
 
+mod ahead;
 mod span;
 mod sweep;
 
@@ -100,6 +101,17 @@ pub(super) struct Loader {
     sweep: Vec<RepId>,
     sweep_at: u64,
     sweep_turn: bool,
+    /// P_I has no time for another prefetch read before the next fetch
+    /// command (the candidates stay for the frames after it).
+    wait_fetch: bool,
+    /// The reps of the fronts ahead, in service order, and the next one.
+    ahead: Vec<RepId>,
+    ahead_at: usize,
+    scratch_ahead: Vec<RepId>,
+    /// The camera's motion per frame, and its last position.
+    motion: glam::Vec3,
+    spin: glam::Quat,
+    last_pos: Option<(glam::Vec3, glam::Quat)>,
 }
 
 impl Loader {
@@ -157,6 +169,13 @@ impl Loader {
             sweep: Vec::new(),
             sweep_at: 0,
             sweep_turn: false,
+            wait_fetch: false,
+            ahead: Vec::new(),
+            ahead_at: 0,
+            scratch_ahead: Vec::new(),
+            motion: glam::Vec3::ZERO,
+            spin: glam::Quat::IDENTITY,
+            last_pos: None,
         }
     }
 
@@ -171,7 +190,10 @@ impl Loader {
         loop {
             let cmd = if let Some(c) = self.pending.take() {
                 c
-            } else if self.params.mode == Mode::Pre && !self.bins.is_empty() {
+            } else if self.params.mode == Mode::Pre
+                && !self.wait_fetch
+                && (!self.bins.is_empty() || self.ahead_pending())
+            {
                 match self.cmds.try_recv() {
                     Ok(c) => c,
                     Err(TryRecvError::Empty) => {
@@ -200,6 +222,10 @@ impl Loader {
                         self.fetch_interval_s += 0.25 * (dt - self.fetch_interval_s);
                     }
                     self.last_fetch_at = Some(now);
+                    self.wait_fetch = false;
+                    let now_pose = (view.pose.position, view.pose.rotation);
+                    (self.motion, self.spin) = ahead::motion(self.last_pos, now_pose);
+                    self.last_pos = Some(now_pose);
                     let expect = period.max(self.fetch_interval_s);
                     self.next_fetch =
                         (period > 0.0).then(|| now + Duration::from_secs_f64(expect * 0.95));
@@ -554,22 +580,38 @@ impl Loader {
         self.bins.clear();
         self.class_gen += 1;
         let p = &self.params.prefetch;
-        let margin = (p.margin_deg + p.margin_per_deg_turn * turn_rad.to_degrees())
+        let mut margin = (p.margin_deg + p.margin_per_deg_turn * turn_rad.to_degrees())
             .min(p.max_margin_deg)
             .to_radians();
+        let mut front = std::mem::take(&mut self.scratch);
+        // All around when the all-around front fits the footprint.
+        let fit = f64::from(p.all_around_fit) * self.params.budget_bytes as f64;
+        let mut done = false;
+        if fit > 0.0 && margin < std::f32::consts::FRAC_PI_2 {
+            let f = view.frustum(std::f32::consts::PI);
+            self.index
+                .compute(view, &f, self.params.tolerance_px, &mut front);
+            let bytes: u64 = front.iter().map(|&r| self.cost(r)).sum();
+            if bytes as f64 <= fit {
+                margin = std::f32::consts::PI;
+                done = true;
+            }
+        }
         let enlarged = view.frustum(margin);
         let own = view.frustum(0.0);
         self.theta0 = own.half_angle;
         self.class_frustum = Some(own);
         self.theta1 = margin.max(1e-3);
-        let mut front = std::mem::take(&mut self.scratch);
-        self.index
-            .compute(view, &enlarged, self.params.tolerance_px, &mut front);
+        if !done {
+            self.index
+                .compute(view, &enlarged, self.params.tolerance_px, &mut front);
+        }
         for &r in &front {
             self.classify(r, 0, r);
         }
         self.plan_sweep(&front);
         self.scratch = front;
+        self.plan_ahead(view, margin);
     }
 
     /// Bins rep `r`, found `depth` PAR/CHD steps from the F_I front, by the
@@ -611,6 +653,9 @@ impl Loader {
     /// when their bins come up: a neighbour is read only when its own
     /// priority says it is needed soon (P_I has few seeks per frame).
     fn prefetch_step(&mut self) {
+        if self.partial.is_none() && self.ahead_step() {
+            return;
+        }
         self.sweep_turn = !self.sweep_turn;
         if self.sweep_turn && self.partial.is_none() && self.sweep_step() {
             return;
@@ -626,17 +671,18 @@ impl Loader {
             }
             self.cancel_partial();
         }
+        if !self.first_block_in_time() {
+            // Not even a first block (the seek) before the next frame: wait
+            // for its fetch command. (A longer read is preempted and goes on
+            // later.)
+            self.wait_fetch = true;
+            return;
+        }
         let Some((o, depth)) = self.bins.pop() else {
             return;
         };
         if self.data[o as usize].is_some() {
             self.list.access(o);
-        } else if !self.first_block_in_time() {
-            // Not even its first block (the seek) before the next frame: wait
-            // for its fetch command. (A longer read is preempted and goes on
-            // later.)
-            self.bins.clear();
-            return;
         } else {
             let got = self.load(o, Purpose::Prefetch);
             // On through the file to the next candidates, while cheap.

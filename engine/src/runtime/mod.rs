@@ -90,6 +90,13 @@ pub struct PrefetchParams {
     /// Reps of the F_I front up to this many bytes are also read by the
     /// sweep, in file order (0: off; see `loader/sweep.rs`).
     pub sweep_bytes: u32,
+    /// Frames of camera motion extrapolated for the lookahead fronts (0:
+    /// off; see `loader/ahead.rs`).
+    pub lookahead_frames: u32,
+    /// F_I goes all around the eye whenever the all-around front at ε takes
+    /// at most this share of the footprint (0: never; the margins above
+    /// decide otherwise).
+    pub all_around_fit: f32,
 }
 
 impl Default for PrefetchParams {
@@ -101,8 +108,10 @@ impl Default for PrefetchParams {
             margin_per_deg_turn: 4.0,
             max_margin_deg: 60.0,
             depth: 1,
-            speculative_share: 0.15,
+            speculative_share: 0.6,
             sweep_bytes: 0,
+            lookahead_frames: 10,
+            all_around_fit: 1.0,
         }
     }
 }
@@ -209,6 +218,12 @@ impl RuntimeParams {
         }
         if !(p.speculative_share > 0.0 && p.speculative_share <= 1.0) {
             return bad("the speculative share must be in (0, 1]");
+        }
+        if !(p.all_around_fit.is_finite() && p.all_around_fit >= 0.0) {
+            return bad("the all-around fit must be a non-negative share of the budget");
+        }
+        if p.lookahead_frames > 10_000 {
+            return bad("lookahead at most 10000 frames");
         }
         if p.max_margin_deg > 180.0 {
             return bad("F_I margin at most 180 degrees");

@@ -295,8 +295,10 @@ fn reading_through_short_gaps_saves_seeks_and_changes_nothing_drawn() {
         b
     };
     let budget = skel.reps.iter().map(|r| u64::from(r.len)).sum::<u64>() / 3;
-    // 10 ms seeks, 4 MB/s (a 4 KiB block takes 1 ms, well above the
-    // sleep granularity): reading through a gap of < 40 KB beats a seek.
+    // 10 ms seeks, 4 MB/s (a 16 KiB block takes 4 ms, well above the
+    // sleep granularity, which would otherwise make the learnt transfer
+    // rate look slower under load): reading through a gap of < 40 KB
+    // beats a seek.
     let model = DiskModel {
         latency: std::time::Duration::from_millis(10),
         bytes_per_sec: 4e6,
@@ -317,7 +319,7 @@ fn reading_through_short_gaps_saves_seeks_and_changes_nothing_drawn() {
         });
         let p = RuntimeParams {
             coalesce_max_gap: gap,
-            block_bytes: 4096,
+            block_bytes: 16 << 10,
             ..params(mode, budget)
         };
         let mut walk = Walkthrough::start(skel.clone(), counter.clone(), p).unwrap();
@@ -367,6 +369,8 @@ fn an_all_around_f_i_and_the_sweep_leave_nothing_missing_after_a_sudden_turn() {
                 max_margin_deg: margin,
                 speculative_share: 1.0,
                 sweep_bytes,
+                // The margins alone decide here.
+                all_around_fit: 0.0,
                 ..PrefetchParams::default()
             },
             ..params(Mode::Pre, total)
@@ -385,4 +389,86 @@ fn an_all_around_f_i_and_the_sweep_leave_nothing_missing_after_a_sudden_turn() {
     // The control: F_I 30° wider than F_R does not reach behind the camera.
     let narrow = run(30.0, 0);
     assert!(narrow.last().unwrap().missing_reps > 0);
+}
+
+#[test]
+fn the_lookahead_prefetches_the_lod_switches_of_an_approach() {
+    let (skel, src) = wide(64);
+    let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    // Along the row of leaves at one leaf a frame: each leaf switches to a
+    // finer LOD as the camera comes within 16 and then 8 leaves of it.
+    let along = std::f32::consts::FRAC_PI_2;
+    let poses: Vec<Pose> = (0..50)
+        .map(|i| pose(100.0 - i as f32, 0.5, 0.5, along))
+        .collect();
+    let run = |lookahead_frames: u32| {
+        let p = RuntimeParams {
+            frame_period_s: 0.05,
+            prefetch: PrefetchParams {
+                // No PAR/CHD and F_I as F_R: only the lookahead foresees a switch.
+                depth: 0,
+                margin_deg: 0.0,
+                max_margin_deg: 0.0,
+                all_around_fit: 0.0,
+                lookahead_frames,
+                ..PrefetchParams::default()
+            },
+            ..params(Mode::Pre, total)
+        };
+        let mut walk = Walkthrough::start(skel.clone(), src.clone(), p).unwrap();
+        let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 20.0).unwrap();
+        check_frames(&frames, total);
+        // The motion is known from the second fetch command on.
+        frames[3..].iter().map(|f| f.miss_lod).sum::<u32>()
+    };
+    let without = run(0);
+    assert!(
+        without > 10,
+        "{without} LOD switches missed without lookahead"
+    );
+    assert_eq!(run(10), 0, "the lookahead missed a switch");
+}
+
+#[test]
+fn f_i_goes_all_around_when_the_all_around_front_fits_even_after_a_slow_first_frame() {
+    use crate::disk::{DiskModel, ThrottledSource};
+    let (skel, mem) = wide(64);
+    let mut bytes = vec![0u8; mem.len() as usize];
+    mem.read_at(0, &mut bytes).unwrap();
+    let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    // 5 ms a seek: the first front takes longer than a frame period, so
+    // the first prefetch waits for the next fetch command, and the camera
+    // does not move again before it turns round.
+    let model = DiskModel {
+        latency: std::time::Duration::from_millis(5),
+        bytes_per_sec: 20e6,
+    };
+    let half = std::f32::consts::FRAC_PI_2;
+    let mut poses = vec![pose(30.0, 0.5, 0.5, -half); 40];
+    poses.push(pose(30.0, 0.5, 0.5, half));
+    let run = |budget: u64, all_around_fit: f32| {
+        let src = Arc::new(ThrottledSource::new(MemSource::new(bytes.clone()), model));
+        let p = RuntimeParams {
+            frame_period_s: 0.05,
+            prefetch: PrefetchParams {
+                all_around_fit,
+                ..PrefetchParams::default()
+            },
+            ..params(Mode::Pre, budget)
+        };
+        let mut walk = Walkthrough::start(skel.clone(), src, p).unwrap();
+        let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 20.0).unwrap();
+        check_frames(&frames, budget);
+        frames
+    };
+    let fits = run(total, 1.0);
+    assert!(
+        fits[0].frame_ms > 50.0,
+        "the first frame overran the period"
+    );
+    let last = fits.last().unwrap();
+    assert!(last.front_reps > 0);
+    assert_eq!(last.missing_reps, 0, "behind was prefetched at rest");
+    // Never all around: the default margins do not reach behind.
+    assert!(run(total, 0.0).last().unwrap().missing_reps > 0);
 }

@@ -114,6 +114,9 @@ pub fn bounds(
             fronts.len() as f64 / f64::from(fps.max(1e-3))
         );
     }
+    s.push_str(&all_around(
+        skel, &index, poses, params, &fronts, budgets, disk,
+    ));
     let _ = writeln!(
         s,
         "\n| budget MiB | demand fetch, optimal eviction (MiB) | reads |\n|---:|---:|---:|"
@@ -180,4 +183,123 @@ fn belady(skel: &Skeleton, fronts: &[Vec<RepId>], budget: u64) -> (f64, u64) {
         }
     }
     (fetched as f64 / MIB, reads)
+}
+
+/// The all-around front A(t) (the front at ε with no frustum culling): the
+/// view front is its part in the frustum, so a P_I that kept A(t-1)
+/// resident would miss only what the motion of frame t switched.
+fn all_around(
+    skel: &Skeleton,
+    index: &FrontIndex,
+    poses: &[Pose],
+    params: &RuntimeParams,
+    fronts: &[Vec<RepId>],
+    budgets: &[u64],
+    disk: Option<DiskModel>,
+) -> String {
+    let len = |r: RepId| u64::from(skel.reps[r as usize].len);
+    let around: Vec<Vec<RepId>> = poses
+        .iter()
+        .map(|p| {
+            let view = params.view(p);
+            let mut out = Vec::new();
+            let f = engine::camera::Frustum::all_around(p.position, p.forward());
+            index.compute(&view, &f, params.tolerance_px, &mut out);
+            out.sort_unstable();
+            out
+        })
+        .collect();
+    let mut sizes: Vec<u64> = around
+        .iter()
+        .map(|a| a.iter().map(|&r| len(r)).sum())
+        .collect();
+    let (mut miss_n, mut miss_b, mut churn_n, mut churn_b, mut churn_s) =
+        (0u64, 0u64, 0u64, 0u64, 0f64);
+    for t in 1..around.len() {
+        let prev = &around[t - 1];
+        for &r in &fronts[t] {
+            if prev.binary_search(&r).is_err() {
+                miss_n += 1;
+                miss_b += len(r);
+            }
+        }
+        let mut new: Vec<RepId> = around[t]
+            .iter()
+            .copied()
+            .filter(|r| prev.binary_search(r).is_err())
+            .collect();
+        churn_n += new.len() as u64;
+        churn_b += new.iter().map(|&r| len(r)).sum::<u64>();
+        if let Some(d) = disk {
+            new.sort_unstable_by_key(|&r| skel.reps[r as usize].offset);
+            let seek = d.latency.as_secs_f64();
+            let gap = (seek * d.bytes_per_sec) as u64;
+            let (mut runs, mut read, mut end) = (0u64, 0u64, None::<u64>);
+            for &r in &new {
+                let rec = skel.reps[r as usize];
+                match end {
+                    Some(e) if rec.offset <= e + gap => read += rec.offset.saturating_sub(e),
+                    _ => runs += 1,
+                }
+                read += u64::from(rec.len);
+                end = Some(rec.offset + u64::from(rec.len));
+            }
+            churn_s += runs as f64 * seek + read as f64 / d.bytes_per_sec;
+        }
+    }
+    // How predictable those switches are: the all-around front of the
+    // position extrapolated `k` frames ahead from frame t-k (the motion of
+    // its last frame) holds r, or r was already in A(t-k).
+    let around_at = |pos: glam::Vec3, fwd: glam::Vec3| {
+        let mut pose = poses[0];
+        pose.position = pos;
+        let view = params.view(&pose);
+        let mut out = Vec::new();
+        let f = engine::camera::Frustum::all_around(pos, fwd);
+        index.compute(&view, &f, params.tolerance_px, &mut out);
+        out.sort_unstable();
+        out
+    };
+    let mut foresee = Vec::new();
+    for k in [5usize, 10] {
+        let (mut n, mut b, mut tot) = (0u64, 0u64, 0u64);
+        for t in (k + 1)..around.len() {
+            let s0 = t - k;
+            let v = poses[s0].position - poses[s0 - 1].position;
+            let pred = around_at(poses[s0].position + v * k as f32, poses[s0].forward());
+            for &r in &fronts[t] {
+                if around[t - 1].binary_search(&r).is_err() {
+                    tot += 1;
+                    if pred.binary_search(&r).is_ok() || around[s0].binary_search(&r).is_ok() {
+                        n += 1;
+                        b += len(r);
+                    }
+                }
+            }
+        }
+        foresee.push(format!(
+            "{k} frames ahead {n} of {tot} ({:.2} MiB)",
+            b as f64 / MIB
+        ));
+    }
+    let over: Vec<String> = budgets
+        .iter()
+        .map(|&b| {
+            format!(
+                "{} over {:.2} MiB",
+                sizes.iter().filter(|&&x| x > b).count(),
+                b as f64 / MIB
+            )
+        })
+        .collect();
+    sizes.sort_unstable();
+    format!(
+        "all-around front: median {:.2} MiB, max {:.2} MiB (frames {}); with A(t-1) resident the view fronts miss {miss_n} reps ({:.2} MiB); A changes by {churn_n} reps ({:.2} MiB) over the path, {churn_s:.1} s to read in file order frame by frame; extrapolating the camera's position, the all-around fronts foresee those misses {}\n",
+        sizes[sizes.len() / 2] as f64 / MIB,
+        sizes[sizes.len() - 1] as f64 / MIB,
+        over.join(", "),
+        miss_b as f64 / MIB,
+        churn_b as f64 / MIB,
+        foresee.join(", "),
+    )
 }

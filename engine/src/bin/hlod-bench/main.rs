@@ -97,14 +97,28 @@ struct Args {
     #[arg(long, default_value = "0")]
     sweep: String,
     /// Largest share of the budget for prefetched reps not yet drawn.
-    #[arg(long, default_value_t = 0.15)]
+    #[arg(long, default_value_t = 0.6)]
     speculative_share: f32,
+    /// Lookahead: P_I also prefetches the fronts of the positions the
+    /// camera's motion reaches in this many frames (and a third of it); 0 = off.
+    #[arg(long, default_value_t = 10)]
+    lookahead: u32,
+    /// F_I goes all around the eye whenever the all-around front takes at
+    /// most this share of the budget; 0 = never.
+    #[arg(long, default_value_t = 1.0)]
+    all_around: f32,
     /// Print what any fetching policy could do on this path (from the
     /// fronts alone: the first-time reps, the oracle's working set, the disk
     /// time of reading the path's reps in file order, demand fetching with
     /// optimal eviction), write it to OUT/bounds.md, and run nothing.
     #[arg(long)]
     bounds: bool,
+    /// Start-up: frames rendered at the path's first pose before the path
+    /// begins (P_I loads the first front and prefetches around it, as an
+    /// in-core viewer loads everything before its first frame); they are
+    /// reported as the start-up, not as path frames.
+    #[arg(long, default_value_t = 0)]
+    warmup: usize,
     /// Output directory for CSVs, the summary, plots and the path used.
     #[arg(long, default_value = "out/bench")]
     out: PathBuf,
@@ -212,6 +226,8 @@ fn run(a: Args) -> Result<()> {
             depth: a.prefetch_depth,
             speculative_share: a.speculative_share,
             sweep_bytes,
+            lookahead_frames: a.lookahead,
+            all_around_fit: a.all_around,
             ..PrefetchParams::default()
         },
         frame_period_s: if a.fps > 0.0 { 1.0 / a.fps } else { 0.0 },
@@ -248,6 +264,11 @@ fn run(a: Args) -> Result<()> {
     let mut reference: Vec<(u32, RgbaImage)> = Vec::new();
     let mut quality = String::from("mode,budget_bytes,frame,psnr_db,substituted\n");
     let mut quality_rows: Vec<String> = Vec::new();
+    let mut startup =
+        String::from("\n| run | start-up ms | start-up MiB read |\n|---|---:|---:|\n");
+    if a.warmup > 1_000_000 {
+        bail!("--warmup must be at most 1000000 frames");
+    }
     let runs = budgets
         .iter()
         .enumerate()
@@ -264,6 +285,7 @@ fn run(a: Args) -> Result<()> {
             budget_bytes: budget,
             ..params
         };
+        let t0 = std::time::Instant::now();
         let mut walk = Walkthrough::start(skel.clone(), source, params)
             .with_context(|| format!("starting mode {}", mode.name()))?;
         let mut gpu_r = match &gpu {
@@ -293,19 +315,36 @@ fn run(a: Args) -> Result<()> {
             Some(r) => r,
             None => &mut none_r,
         };
-        let frames = run_path(&mut walk, &poses, renderer, a.fps)?;
+        // The first frame loads the first front; the others come a frame
+        // period apart after it.
+        let mut warm = run_path(&mut walk, &poses[..a.warmup.min(1)], renderer, a.fps)?;
+        let rest = vec![poses[0]; a.warmup.saturating_sub(1)];
+        warm.extend(run_path(&mut walk, &rest, renderer, a.fps)?);
+        let start_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let mut frames = run_path(&mut walk, &poses, renderer, a.fps)?;
         drop(walk);
+        for (i, f) in frames.iter_mut().enumerate() {
+            f.frame = i as u32; // path frames, after the start-up
+        }
         let tag = if budgets.len() > 1 && mode != Mode::Incore {
             format!("{}-{:.2}MiB", mode.name(), budget as f64 / 1048576.0)
         } else {
             mode.name().to_string()
         };
         std::fs::write(a.out.join(format!("{tag}.csv")), to_csv(&frames))?;
+        let read: u64 = warm.iter().map(|f| f.stage2_bytes + f.prefetch_bytes).sum();
+        startup.push_str(&format!(
+            "| {tag} | {start_ms:.0} | {:.2} |\n",
+            read as f64 / 1048576.0
+        ));
+        let warm_over = warm
+            .iter()
+            .any(|f| f.max_resident_bytes > budget || f.gpu_bytes > budget);
         let over = frames
             .iter()
             .filter(|f| f.max_resident_bytes > budget || f.gpu_bytes > budget)
             .count();
-        if mode != Mode::Incore && over > 0 {
+        if mode != Mode::Incore && (over > 0 || warm_over) {
             bail!(
                 "mode {}: the footprint exceeded the budget on {over} frames",
                 mode.name()
@@ -316,7 +355,14 @@ fn run(a: Args) -> Result<()> {
             if !errors.is_empty() {
                 bail!("GPU errors in mode {}: {}", mode.name(), errors.join("; "));
             }
-            let caps = r.take_captures();
+            // Path frame indices (the start-up frames come first).
+            let w = a.warmup as u32;
+            let caps: Vec<(u32, RgbaImage)> = r
+                .take_captures()
+                .into_iter()
+                .filter(|(i, _)| *i >= w)
+                .map(|(i, img)| (i - w, img))
+                .collect();
             if a.save_frames {
                 let dir = a.out.join("frames");
                 std::fs::create_dir_all(&dir)?;
@@ -341,6 +387,12 @@ fn run(a: Args) -> Result<()> {
     let mut table = summary_table(&rows);
     if skel.reps.iter().any(|r| r.is_vdt()) {
         table.push_str(&format!("\nView-dependence trees:\n\n{}", vdt_table(&rows)));
+    }
+    if a.warmup > 0 {
+        table.push_str(&format!(
+            "\nStart-up ({} frames at the first pose before the path; in-core: loading every rep):\n{startup}",
+            a.warmup
+        ));
     }
     println!("\n{table}");
     let mut report = table.clone();

@@ -49,7 +49,13 @@ impl IoCosts {
             // prefetch still running when the fetch command arrives stalls P_R.
             self.first_block_s = t.max(self.first_block_s * 0.995);
             let seek = (t - bytes as f64 * self.per_byte_s).max(0.0);
-            self.seek_s += Self::A * (seek - self.seek_s);
+            if self.seek_s > 0.0 {
+                self.seek_s += Self::A * (seek - self.seek_s);
+            } else {
+                // The first seek seen starts the average (from 0 it would
+                // take a dozen seeks to learn the break-even gap).
+                self.seek_s = seek;
+            }
         }
         self.last_end = Some(offset + bytes as u64);
     }
