@@ -182,11 +182,19 @@ impl RepRecord {
     }
 }
 
+impl From<std::io::Error> for FormatError {
+    fn from(e: std::io::Error) -> Self {
+        Self::Io(e)
+    }
+}
+
 /// Errors from reading or writing a scene file.
 #[derive(Debug, thiserror::Error)]
 pub enum FormatError {
+    /// The message includes the I/O error's, so it is not also a source
+    /// (an `anyhow` chain would print it twice).
     #[error("I/O error: {0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
     #[error("not a scene file (bad magic {0:02x?})")]
     BadMagic([u8; 8]),
     #[error("unsupported format version {found} (this build reads {VERSION})")]
