@@ -117,8 +117,7 @@ pub(super) struct Loader {
     scratch_ahead: Vec<RepId>,
     /// The camera's motion per frame, and its last position.
     motion: glam::Vec3,
-    spin: glam::Quat,
-    last_pos: Option<(glam::Vec3, glam::Quat)>,
+    last_pos: Option<glam::Vec3>,
 }
 
 impl Loader {
@@ -181,7 +180,6 @@ impl Loader {
             ahead_at: 0,
             scratch_ahead: Vec::new(),
             motion: glam::Vec3::ZERO,
-            spin: glam::Quat::IDENTITY,
             last_pos: None,
         }
     }
@@ -230,9 +228,8 @@ impl Loader {
                     }
                     self.last_fetch_at = Some(now);
                     self.wait_fetch = false;
-                    let now_pose = (view.pose.position, view.pose.rotation);
-                    (self.motion, self.spin) = ahead::motion(self.last_pos, now_pose);
-                    self.last_pos = Some(now_pose);
+                    self.motion = ahead::motion(self.last_pos, view.pose.position);
+                    self.last_pos = Some(view.pose.position);
                     let expect = period.max(self.fetch_interval_s);
                     self.next_fetch =
                         (period > 0.0).then(|| now + Duration::from_secs_f64(expect * 0.95));

@@ -15,7 +15,7 @@
 //! in the order of their angle to the line of sight, before the bins. The
 //! resident ones are touched so that no prefetch evicts them.
 
-use glam::{Quat, Vec3};
+use glam::Vec3;
 
 use super::{LoadError, Loader, Purpose};
 use crate::camera::View;
@@ -28,7 +28,7 @@ impl Loader {
         self.ahead_at = 0;
         let k = self.params.prefetch.lookahead_frames;
         let v = self.motion;
-        if k == 0 || !v.is_finite() || (v.length_squared() == 0.0 && self.spin == Quat::IDENTITY) {
+        if k == 0 || !v.is_finite() || v.length_squared() == 0.0 {
             return;
         }
         let Some(own) = self.class_frustum else {
@@ -104,14 +104,7 @@ impl Loader {
     }
 }
 
-/// The camera's motion per frame from the previous pose to `now`: the
-/// translation and the rotation (world space).
-pub(super) fn motion(prev: Option<(Vec3, Quat)>, now: (Vec3, Quat)) -> (Vec3, Quat) {
-    prev.map_or((Vec3::ZERO, Quat::IDENTITY), |(p, q)| {
-        let mut spin = (now.1 * q.inverse()).normalize();
-        if spin.w < 0.0 {
-            spin = -spin;
-        }
-        (now.0 - p, spin)
-    })
+/// The camera's motion per frame: from the previous position to `now`.
+pub(super) fn motion(prev: Option<Vec3>, now: Vec3) -> Vec3 {
+    prev.map_or(Vec3::ZERO, |p| now - p)
 }
