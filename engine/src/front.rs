@@ -88,6 +88,19 @@ impl FrontIndex {
         stats
     }
 
+    /// Keeps the reps of `front`, computed with no culling (all around the
+    /// eye), that [`compute`](Self::compute) with `frustum` would return,
+    /// in the same order: those whose node box meets `frustum`. (The
+    /// traversals choose alike where both go; a box inside its parent's
+    /// never passes the plane test where the parent's fails, so a node
+    /// that meets the frustum has no culled ancestor.)
+    pub fn restrict(&self, s: &Skeleton, frustum: &Frustum, front: &mut Vec<RepId>) {
+        front.retain(|&r| {
+            let n = s.reps[r as usize].node as usize;
+            frustum.intersects(self.min[n], self.max[n])
+        });
+    }
+
     /// Projected error of rep `r` (of node `node`) in pixels.
     pub fn projected_error(&self, view: &View, node: u32, r: RepId) -> f32 {
         let i = node as usize;

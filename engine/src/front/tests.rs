@@ -160,3 +160,26 @@ mod properties {
         }
     }
 }
+
+#[test]
+fn restricting_the_all_around_front_to_a_frustum_computes_its_front() {
+    let s = row(40);
+    let index = FrontIndex::new(&s);
+    for (eye, target) in [
+        (Vec3::new(-5.0, 3.0, 0.5), Vec3::new(40.0, 0.0, 0.5)),
+        (Vec3::new(30.0, 0.5, 3.0), Vec3::new(10.0, 0.5, 0.0)),
+        (Vec3::new(41.0, 0.5, 0.5), Vec3::new(80.0, 0.5, 0.5)),
+    ] {
+        let view = view_from(eye, target);
+        let mut all = Vec::new();
+        let around = Frustum::all_around(eye, view.pose.forward());
+        index.compute(&view, &around, 0.5, &mut all);
+        for margin in [0.0, 0.4, 1.2] {
+            let f = view.frustum(margin);
+            let (mut direct, mut restricted) = (Vec::new(), all.clone());
+            index.compute(&view, &f, 0.5, &mut direct);
+            index.restrict(&s, &f, &mut restricted);
+            assert_eq!(restricted, direct, "eye {eye}, margin {margin}");
+        }
+    }
+}

@@ -590,9 +590,7 @@ impl Loader {
             // Still a candidate: binned by this classification or the one
             // before (a child is binned again only when its parent comes up).
             if self.class_gen.wrapping_sub(self.queued[r as usize]) <= 1 {
-                let _ = self
-                    .load(r, Purpose::Prefetch)
-                    .and_then(|_| self.extend_prefetch(r));
+                let _ = self.prefetch_read(r);
                 return;
             }
             self.cancel_partial();
@@ -610,9 +608,8 @@ impl Loader {
         if self.data[o as usize].is_some() {
             self.list.access(o);
         } else {
-            let got = self.load(o, Purpose::Prefetch);
             // On through the file to the next candidates, while cheap.
-            match got.and_then(|_| self.extend_prefetch(o)) {
+            match self.prefetch_read(o) {
                 Ok(()) | Err(LoadError::NoRoom) | Err(LoadError::Failed) => {}
                 Err(LoadError::Preempted) => return,
             }

@@ -92,16 +92,7 @@ pub fn bounds(
         all.dedup();
         let seek = d.latency.as_secs_f64();
         let gap = (seek * d.bytes_per_sec) as u64;
-        let (mut runs, mut read, mut end) = (0u64, 0u64, None::<u64>);
-        for &r in &all {
-            let rec = skel.reps[r as usize];
-            match end {
-                Some(e) if rec.offset <= e + gap => read += rec.offset.saturating_sub(e),
-                _ => runs += 1,
-            }
-            read += u64::from(rec.len);
-            end = Some(rec.offset + u64::from(rec.len));
-        }
+        let (runs, read) = file_order_runs(skel, &all, gap);
         let one_seek_each = all.len() as f64 * seek + bytes(&all) as f64 / d.bytes_per_sec;
         let _ = writeln!(
             s,
@@ -198,17 +189,7 @@ fn all_around(
     disk: Option<DiskModel>,
 ) -> String {
     let len = |r: RepId| u64::from(skel.reps[r as usize].len);
-    let around: Vec<Vec<RepId>> = poses
-        .iter()
-        .map(|p| {
-            let view = params.view(p);
-            let mut out = Vec::new();
-            let f = engine::camera::Frustum::all_around(p.position, p.forward());
-            index.compute(&view, &f, params.tolerance_px, &mut out);
-            out.sort_unstable();
-            out
-        })
-        .collect();
+    let around: Vec<Vec<RepId>> = poses.iter().map(|p| around_of(index, params, p)).collect();
     let mut sizes: Vec<u64> = around
         .iter()
         .map(|a| a.iter().map(|&r| len(r)).sum())
@@ -233,40 +214,24 @@ fn all_around(
         if let Some(d) = disk {
             new.sort_unstable_by_key(|&r| skel.reps[r as usize].offset);
             let seek = d.latency.as_secs_f64();
-            let gap = (seek * d.bytes_per_sec) as u64;
-            let (mut runs, mut read, mut end) = (0u64, 0u64, None::<u64>);
-            for &r in &new {
-                let rec = skel.reps[r as usize];
-                match end {
-                    Some(e) if rec.offset <= e + gap => read += rec.offset.saturating_sub(e),
-                    _ => runs += 1,
-                }
-                read += u64::from(rec.len);
-                end = Some(rec.offset + u64::from(rec.len));
-            }
+            let (runs, read) = file_order_runs(skel, &new, (seek * d.bytes_per_sec) as u64);
             churn_s += runs as f64 * seek + read as f64 / d.bytes_per_sec;
         }
     }
     // How predictable those switches are: the all-around front of the
     // position extrapolated `k` frames ahead from frame t-k (the motion of
     // its last frame) holds r, or r was already in A(t-k).
-    let around_at = |pos: glam::Vec3, fwd: glam::Vec3| {
-        let mut pose = poses[0];
-        pose.position = pos;
-        let view = params.view(&pose);
-        let mut out = Vec::new();
-        let f = engine::camera::Frustum::all_around(pos, fwd);
-        index.compute(&view, &f, params.tolerance_px, &mut out);
-        out.sort_unstable();
-        out
-    };
     let mut foresee = Vec::new();
     for k in [5usize, 10] {
         let (mut n, mut b, mut tot) = (0u64, 0u64, 0u64);
         for t in (k + 1)..around.len() {
             let s0 = t - k;
             let v = poses[s0].position - poses[s0 - 1].position;
-            let pred = around_at(poses[s0].position + v * k as f32, poses[s0].forward());
+            let ahead = Pose {
+                position: poses[s0].position + v * k as f32,
+                ..poses[s0]
+            };
+            let pred = around_of(index, params, &ahead);
             for &r in &fronts[t] {
                 if around[t - 1].binary_search(&r).is_err() {
                     tot += 1;
@@ -302,4 +267,30 @@ fn all_around(
         churn_b as f64 / MIB,
         foresee.join(", "),
     )
+}
+
+/// The all-around front of `pose` (no frustum culling), sorted by rep id.
+fn around_of(index: &FrontIndex, params: &RuntimeParams, pose: &Pose) -> Vec<RepId> {
+    let view = params.view(pose);
+    let mut out = Vec::new();
+    let f = engine::camera::Frustum::all_around(pose.position, pose.forward());
+    index.compute(&view, &f, params.tolerance_px, &mut out);
+    out.sort_unstable();
+    out
+}
+
+/// `reps` (in file order) read as runs joined through gaps up to `gap`
+/// bytes: the number of runs and the bytes read, gaps included.
+fn file_order_runs(skel: &Skeleton, reps: &[RepId], gap: u64) -> (u64, u64) {
+    let (mut runs, mut read, mut end) = (0u64, 0u64, None::<u64>);
+    for &r in reps {
+        let rec = skel.reps[r as usize];
+        match end {
+            Some(e) if rec.offset <= e + gap => read += rec.offset.saturating_sub(e),
+            _ => runs += 1,
+        }
+        read += u64::from(rec.len);
+        end = Some(rec.offset + u64::from(rec.len));
+    }
+    (runs, read)
 }

@@ -17,7 +17,7 @@
 
 use glam::Vec3;
 
-use super::{LoadError, Loader, Purpose};
+use super::{LoadError, Loader};
 use crate::camera::View;
 use crate::skeleton::RepId;
 
@@ -85,10 +85,7 @@ impl Loader {
                 self.wait_fetch = true;
                 return true;
             }
-            match self
-                .load(r, Purpose::Prefetch)
-                .and_then(|_| self.extend_prefetch(r))
-            {
+            match self.prefetch_read(r) {
                 Ok(()) | Err(LoadError::Failed) | Err(LoadError::Preempted) => {}
                 // No room without evicting what must stay: the rest waits.
                 Err(LoadError::NoRoom) => self.ahead.clear(),

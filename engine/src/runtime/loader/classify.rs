@@ -22,17 +22,17 @@ impl Loader {
             .min(p.max_margin_deg)
             .to_radians();
         let mut front = std::mem::take(&mut self.scratch);
-        // All around when the all-around front fits the footprint.
+        // All around when the all-around front fits the footprint; if it
+        // does not, F_I's front is its part in F_I.
         let fit = f64::from(p.all_around_fit) * self.params.budget_bytes as f64;
-        let mut done = false;
-        if fit > 0.0 && margin < std::f32::consts::FRAC_PI_2 {
+        let have_all_around = fit > 0.0 && margin < std::f32::consts::FRAC_PI_2;
+        if have_all_around {
             let f = view.frustum(std::f32::consts::PI);
             self.index
                 .compute(view, &f, self.params.tolerance_px, &mut front);
             let bytes: u64 = front.iter().map(|&r| self.cost(r)).sum();
             if bytes as f64 <= fit {
                 margin = std::f32::consts::PI;
-                done = true;
             }
         }
         let enlarged = view.frustum(margin);
@@ -40,9 +40,11 @@ impl Loader {
         self.theta0 = own.half_angle;
         self.class_frustum = Some(own);
         self.theta1 = margin.max(1e-3);
-        if !done {
+        if !have_all_around {
             self.index
                 .compute(view, &enlarged, self.params.tolerance_px, &mut front);
+        } else if margin < std::f32::consts::FRAC_PI_2 {
+            self.index.restrict(&self.skeleton, &enlarged, &mut front);
         }
         for &r in &front {
             self.classify(r, 0, r);

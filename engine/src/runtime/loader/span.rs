@@ -258,6 +258,13 @@ impl Loader {
         Instant::now() + Duration::from_secs_f64(need_s) <= due
     }
 
+    /// Prefetches rep `r`, then reads on to the candidates stored after it
+    /// while that is cheap ([`extend_prefetch`](Self::extend_prefetch)).
+    pub(super) fn prefetch_read(&mut self, r: RepId) -> Result<(), LoadError> {
+        self.load(r, Purpose::Prefetch)?;
+        self.extend_prefetch(r)
+    }
+
     /// Continues a prefetch read past rep `x` to the next candidates stored
     /// within the break-even gap, while each read still ends before the next
     /// fetch command is due.

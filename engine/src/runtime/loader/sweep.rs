@@ -62,10 +62,7 @@ impl Loader {
         if !bridged && !self.first_block_in_time() {
             return false;
         }
-        match self
-            .load(r, Purpose::Prefetch)
-            .and_then(|_| self.extend_prefetch(r))
-        {
+        match self.prefetch_read(r) {
             Ok(()) | Err(LoadError::Failed) | Err(LoadError::Preempted) => {}
             Err(LoadError::NoRoom) => self.sweep.clear(),
         }
