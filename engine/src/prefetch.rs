@@ -88,6 +88,13 @@ impl Bins {
         }
     }
 
+    /// The item [`pop`](Self::pop) would return, left in its bin.
+    pub fn peek(&self) -> Option<(RepId, u8)> {
+        self.order
+            .iter()
+            .find_map(|&b| self.queues[b].front().copied())
+    }
+
     /// The first item of the highest-priority non-empty bin.
     pub fn pop(&mut self) -> Option<(RepId, u8)> {
         for &b in &self.order {
@@ -121,6 +128,19 @@ impl Bins {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn peek_is_what_pop_returns() {
+        let mut b = Bins::new(4, 4.0, 1.0);
+        assert_eq!(b.peek(), None);
+        b.push(7, 3.5, 0);
+        b.push(8, 1.2, 1);
+        b.push(9, 1.5, 0);
+        while let Some(x) = b.peek() {
+            assert_eq!(b.pop(), Some(x));
+        }
+        assert!(b.is_empty());
+    }
 
     #[test]
     fn bin_order_follows_figure_5() {

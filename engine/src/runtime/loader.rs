@@ -231,8 +231,10 @@ impl Loader {
                     self.motion = ahead::motion(self.last_pos, view.pose.position);
                     self.last_pos = Some(view.pose.position);
                     let expect = period.max(self.fetch_interval_s);
+                    // 1 % early: frame pacing wakes P_R a little late, not
+                    // early (reads are timed per read, with their own margin).
                     self.next_fetch =
-                        (period > 0.0).then(|| now + Duration::from_secs_f64(expect * 0.95));
+                        (period > 0.0).then(|| now + Duration::from_secs_f64(expect * 0.99));
                     if self.fetch(&front).is_err() {
                         return;
                     }
@@ -595,10 +597,13 @@ impl Loader {
             }
             self.cancel_partial();
         }
-        if !self.first_block_in_time() {
-            // Not even a first block (the seek) before the next frame: wait
-            // for its fetch command. (A longer read is preempted and goes on
-            // later.)
+        let Some((o, _)) = self.bins.peek() else {
+            return;
+        };
+        if self.data[o as usize].is_none() && !self.first_block_in_time(o) {
+            // Not even its first block (the seek) before the next frame:
+            // wait for the fetch command. (A longer read is preempted and
+            // goes on later.)
             self.wait_fetch = true;
             return;
         }

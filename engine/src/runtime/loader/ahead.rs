@@ -78,7 +78,7 @@ impl Loader {
             if !self.wanted(r) {
                 continue;
             }
-            if !self.first_block_in_time() {
+            if !self.first_block_in_time(r) {
                 // Not even its seek before the next frame: wait for the
                 // fetch command.
                 self.ahead_at -= 1;

@@ -19,12 +19,15 @@ use crate::skeleton::{RepId, Skeleton};
 /// Learnt read costs of the rep source.
 #[derive(Clone, Debug, Default)]
 pub(super) struct IoCosts {
-    /// A decaying maximum of the time of a read that seeks.
+    /// A decaying maximum of the time of a read that seeks (the estimate of
+    /// a first block until seek and transfer costs are learnt).
     pub(super) first_block_s: f64,
     /// A moving average of seconds per byte of reads that do not seek.
     pub(super) per_byte_s: f64,
     /// A moving average of the seek time (a seeking read less its transfer).
     pub(super) seek_s: f64,
+    /// A decaying maximum of the seek time.
+    pub(super) seek_max_s: f64,
     /// Where P_I's last read ended.
     last_end: Option<u64>,
 }
@@ -49,6 +52,7 @@ impl IoCosts {
             // prefetch still running when the fetch command arrives stalls P_R.
             self.first_block_s = t.max(self.first_block_s * 0.995);
             let seek = (t - bytes as f64 * self.per_byte_s).max(0.0);
+            self.seek_max_s = seek.max(self.seek_max_s * 0.995);
             if self.seek_s > 0.0 {
                 self.seek_s += Self::A * (seek - self.seek_s);
             } else {
@@ -58,6 +62,23 @@ impl IoCosts {
             }
         }
         self.last_end = Some(offset + bytes as u64);
+    }
+
+    /// How long the first block (up to `block` bytes) of a read of `bytes`
+    /// at `offset` is expected to take: a seek unless it goes on from the
+    /// last read, and the block's transfer. Until both costs are known, the
+    /// slowest seeking read seen.
+    pub(super) fn first_block_estimate(&self, offset: u64, bytes: u64, block: u64) -> f64 {
+        if self.seek_max_s <= 0.0 || self.per_byte_s <= 0.0 {
+            return self.first_block_s;
+        }
+        let seek = if self.last_end == Some(offset) {
+            0.0
+        } else {
+            self.seek_max_s
+        };
+        // A 3 % margin for the jitter of the clock and the disk.
+        (seek + bytes.min(block) as f64 * self.per_byte_s) * 1.03
     }
 
     /// Where P_I's last read ended (the next read there does not seek).
@@ -239,11 +260,27 @@ impl Loader {
         false
     }
 
-    /// Whether a prefetch read's first block (a seek and up to a block; the
-    /// rest may be preempted and resumed) ends before the next fetch command
-    /// is due.
-    pub(super) fn first_block_in_time(&self) -> bool {
-        self.ends_in_time(self.costs.first_block_s)
+    /// Whether the first block of a prefetch read of rep `r` (a seek unless
+    /// it goes on from the last read, and up to a block; the rest may be
+    /// preempted and resumed) ends before the next fetch command is due. A
+    /// read that overruns delays P_R's next frame by the overrun: the
+    /// estimate is per read, so that a small rep still fits at the end of a
+    /// frame where a large one would not.
+    pub(super) fn first_block_in_time(&self, r: RepId) -> bool {
+        let rec = self.skeleton.reps[r as usize];
+        let bytes = match &self.partial {
+            Some(p) if p.rep == r => (p.buf.len() - p.done) as u64,
+            _ => u64::from(rec.len),
+        };
+        let at = match &self.partial {
+            Some(p) if p.rep == r => rec.offset + p.done as u64,
+            _ => rec.offset,
+        };
+        self.ends_in_time(self.costs.first_block_estimate(
+            at,
+            bytes,
+            self.params.block_bytes as u64,
+        ))
     }
 
     /// The same for `len` bytes read on from where the last read ended.
@@ -324,5 +361,24 @@ mod tests {
         assert!((290_000..310_000).contains(&g), "{g}");
         assert_eq!(c.max_gap(100_000, 4096), 100_000, "capped");
         assert!((c.first_block_s - 0.011).abs() < 1e-3);
+        // A read's first block: the seek and the block's transfer, or the
+        // transfer alone where the last read ended; 3 % margin.
+        let end = c.last_end().unwrap();
+        let est = |at, bytes| c.first_block_estimate(at, bytes, 65_536) * 1e3;
+        assert!(
+            (est(end + 1, 30_000) - 11.33).abs() < 0.05,
+            "{}",
+            est(end + 1, 30_000)
+        );
+        assert!(
+            (est(end, 30_000) - 1.03).abs() < 0.05,
+            "{}",
+            est(end, 30_000)
+        );
+        let capped = 1.03 * (10.0 + 65_536.0 / 30_000.0);
+        assert!((est(end + 1, 1 << 20) - capped).abs() < 0.05);
+        // Until costs are known: the slowest seeking read seen.
+        let fresh = IoCosts::default();
+        assert_eq!(fresh.first_block_estimate(0, 100, 65_536), 0.0);
     }
 }

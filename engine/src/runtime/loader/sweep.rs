@@ -59,7 +59,7 @@ impl Loader {
         if self.pending.is_some() {
             return true;
         }
-        if !bridged && !self.first_block_in_time() {
+        if !bridged && !self.first_block_in_time(r) {
             return false;
         }
         match self.prefetch_read(r) {
