@@ -66,16 +66,21 @@ pub struct FrameMetrics {
     /// Stage II and in prefetching.
     pub stage2_seeks: u32,
     pub prefetch_seeks: u32,
+    /// Front reps drawn as an ancestor because the stall deadline passed
+    /// (also counted in `substituted`), and bytes read on demand after
+    /// their frame's deadline.
+    pub late_reps: u32,
+    pub late_bytes: u64,
 }
 
 /// CSV header matching [`FrameMetrics::csv_row`].
-pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks";
+pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes";
 
 impl FrameMetrics {
     /// One CSV line (no newline).
     pub fn csv_row(&self) -> String {
         format!(
-            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{:.3},{},{},{},{},{}",
+            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{:.3},{},{},{},{},{},{},{}",
             self.frame,
             self.mode,
             self.frame_ms,
@@ -114,7 +119,9 @@ impl FrameMetrics {
             self.resumed,
             self.wasted_bytes,
             self.stage2_seeks,
-            self.prefetch_seeks
+            self.prefetch_seeks,
+            self.late_reps,
+            self.late_bytes
         )
     }
 }
@@ -140,11 +147,15 @@ pub struct Summary {
     pub p99_ms: f64,
     pub max_ms: f64,
     pub over_period: usize,
+    /// Bytes read on demand: in Stage II, and late (after a frame's stall
+    /// deadline).
     pub stage2_bytes: u64,
     pub prefetch_bytes: u64,
     pub max_resident_bytes: u64,
     pub budget_bytes: u64,
     pub substituted: u64,
+    /// Of `substituted`: front reps not loaded by the stall deadline.
+    pub late_reps: u64,
     pub mean_front_ms: f64,
     /// Frames that drew a view-dependence tree, and per such frame: mean
     /// Adapt, mean active tree triangles, Miss % (misses / (Adapt +
@@ -182,7 +193,7 @@ pub fn summarize(frames: &[FrameMetrics], period_ms: f64) -> Summary {
         p99_ms: quantile(&t, 0.99),
         max_ms: t.iter().copied().fold(0.0, f64::max),
         over_period: t.iter().filter(|&&x| x > period_ms).count(),
-        stage2_bytes: frames.iter().map(|f| f.stage2_bytes).sum(),
+        stage2_bytes: frames.iter().map(|f| f.stage2_bytes + f.late_bytes).sum(),
         prefetch_bytes: frames.iter().map(|f| f.prefetch_bytes).sum(),
         max_resident_bytes: frames
             .iter()
@@ -191,6 +202,7 @@ pub fn summarize(frames: &[FrameMetrics], period_ms: f64) -> Summary {
             .unwrap_or(0),
         budget_bytes: frames.first().map_or(0, |f| f.budget_bytes),
         substituted: frames.iter().map(|f| u64::from(f.substituted)).sum(),
+        late_reps: frames.iter().map(|f| u64::from(f.late_reps)).sum(),
         mean_front_ms: frames.iter().map(|f| f.front_ms).sum::<f64>() / n,
         ..vdt_summary(frames)
     }

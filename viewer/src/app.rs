@@ -52,6 +52,7 @@ fn initial_settings(a: &Args) -> Result<Settings> {
         tolerance_px: a.tolerance,
         width_px: a.width,
         height_px: a.height,
+        stall_deadline_s: a.stall_deadline / 1e3,
         ..RuntimeParams::default()
     };
     params.check()?;

@@ -43,6 +43,11 @@ pub struct Args {
     /// Error tolerance ε in pixels.
     #[arg(long, default_value_t = 2.0)]
     pub tolerance: f32,
+    /// Stall deadline in ms (0: wait for every missing rep, the paper's
+    /// protocol): what Stage II cannot read in time is drawn as its nearest
+    /// resident ancestor and read after the frame.
+    #[arg(long, default_value_t = 0.0)]
+    pub stall_deadline: f32,
     /// file, hdd, ssd, nvme or LATENCY_MS:MB_PER_S.
     #[arg(long, default_value = "file")]
     pub disk: String,

@@ -13,6 +13,7 @@
 
 mod ahead;
 mod classify;
+mod late;
 mod span;
 mod sweep;
 
@@ -115,6 +116,11 @@ pub(super) struct Loader {
     ahead: Vec<RepId>,
     ahead_at: usize,
     scratch_ahead: Vec<RepId>,
+    /// Front reps past the stall deadline, read after the frame (`late`).
+    late: Vec<RepId>,
+    late_at: usize,
+    /// `pin_gen` of the frame a rep went late in.
+    late_stamp: Vec<u32>,
     /// The camera's motion per frame, and its last position.
     motion: glam::Vec3,
     last_pos: Option<glam::Vec3>,
@@ -179,6 +185,9 @@ impl Loader {
             ahead: Vec::new(),
             ahead_at: 0,
             scratch_ahead: Vec::new(),
+            late: Vec::new(),
+            late_at: 0,
+            late_stamp: vec![u32::MAX; n],
             motion: glam::Vec3::ZERO,
             last_pos: None,
         }
@@ -195,14 +204,17 @@ impl Loader {
         loop {
             let cmd = if let Some(c) = self.pending.take() {
                 c
-            } else if self.params.mode == Mode::Pre
-                && !self.wait_fetch
-                && (!self.bins.is_empty() || self.ahead_pending())
+            } else if !self.wait_fetch
+                && (self.late_pending()
+                    || (self.params.mode == Mode::Pre
+                        && (!self.bins.is_empty() || self.ahead_pending())))
             {
                 match self.cmds.try_recv() {
                     Ok(c) => c,
                     Err(TryRecvError::Empty) => {
-                        self.prefetch_step();
+                        if !self.late_step() && self.params.mode == Mode::Pre {
+                            self.prefetch_step();
+                        }
                         continue;
                     }
                     Err(TryRecvError::Disconnected) => return,
@@ -357,7 +369,19 @@ impl Loader {
         self.account_misses(front, &missing);
         // In file order: neighbouring reps are read without a seek.
         missing.sort_unstable_by_key(|&r| self.skeleton.reps[r as usize].offset);
-        for r in missing {
+        self.late.clear();
+        self.late_at = 0;
+        for (i, &r) in missing.iter().enumerate() {
+            if !self.in_time_for_frame(r) {
+                // Past the stall deadline: ancestors now, the reps after.
+                for &x in &missing[i..] {
+                    self.stats.late_reps += 1;
+                    self.late_stamp[x as usize] = self.pin_gen;
+                    self.substitute(x)?;
+                }
+                self.late.extend_from_slice(&missing[i..]);
+                break;
+            }
             if let Some(end) = self.costs.last_end() {
                 // Through a short gap (keeping prefetch candidates on the way).
                 self.bridge(end, self.skeleton.reps[r as usize].offset, Purpose::Demand);
@@ -530,6 +554,7 @@ impl Loader {
             let n = (end - done) as u64;
             match purpose {
                 Purpose::Demand => self.stats.stage2_bytes += n,
+                Purpose::Prefetch if self.is_late(r) => self.stats.late_bytes += n,
                 Purpose::Prefetch => self.stats.prefetch_bytes += n,
             }
             done = end;
@@ -548,7 +573,7 @@ impl Loader {
         let payload: Arc<[u8]> = buf.into();
         self.data[r as usize] = Some(payload.clone());
         self.list.access(r);
-        if purpose == Purpose::Prefetch {
+        if purpose == Purpose::Prefetch && !self.is_late(r) {
             self.set_speculative(r, true);
         }
         Ok(payload)

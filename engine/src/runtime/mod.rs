@@ -143,6 +143,12 @@ pub struct RuntimeParams {
     /// Longest gap between two wanted reps that P_I reads through instead
     /// of seeking over (the break-even gap is learnt; this caps it; 0: off).
     pub coalesce_max_gap: u64,
+    /// Stall deadline (0: off, the paper's protocol: P_R waits for every
+    /// missing rep). Otherwise Stage II starts a read only when its first
+    /// block ends within this many seconds of the fetch command; the reps
+    /// left are drawn as their nearest resident ancestor (counted as
+    /// substituted and late) and loaded right after the frame.
+    pub stall_deadline_s: f32,
 }
 
 impl Default for RuntimeParams {
@@ -160,6 +166,7 @@ impl Default for RuntimeParams {
             frame_period_s: 0.0,
             vdt_pool_bytes: 4 << 20,
             coalesce_max_gap: 1 << 20,
+            stall_deadline_s: 0.0,
         }
     }
 }
@@ -200,6 +207,9 @@ impl RuntimeParams {
         }
         if !(self.frame_period_s.is_finite() && self.frame_period_s >= 0.0) {
             return bad("frame period must be a non-negative number of seconds");
+        }
+        if !(self.stall_deadline_s.is_finite() && self.stall_deadline_s >= 0.0) {
+            return bad("stall deadline must be a non-negative number of seconds");
         }
         if self.block_bytes < 512 {
             return bad("block size must be at least 512 bytes");
@@ -305,6 +315,10 @@ struct StageStats {
     prefetch_seeks: u32,
     /// Prefetch candidates waiting in the bins at the end of Stage II.
     prefetch_queue: u32,
+    /// Front reps drawn as an ancestor because the stall deadline passed,
+    /// and bytes read after their frame's deadline (on demand, late).
+    late_reps: u32,
+    late_bytes: u64,
 }
 
 /// P_R: drives frames against a running P_I.
@@ -566,6 +580,8 @@ impl Walkthrough {
         m.stage2_seeks = stats.stage2_seeks;
         m.prefetch_seeks = stats.prefetch_seeks;
         m.prefetch_queue = stats.prefetch_queue;
+        m.late_reps = stats.late_reps;
+        m.late_bytes = stats.late_bytes;
         m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok(m)
     }

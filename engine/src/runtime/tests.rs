@@ -75,13 +75,28 @@ proptest! {
         budget_frac in 0.0f64..1.0,
         steps in prop::collection::vec((-3.0f32..3.0, -1.0f32..1.0, -3.0f32..3.0, -1.5f32..1.5), 200..400),
         prefetch in any::<bool>(),
+        // A stall deadline (s) on a disk with 0.2 ms seeks, or none.
+        deadline in prop_oneof![Just(0.0f32), 0.0001f32..0.001],
     ) {
+        use crate::disk::{DiskModel, ThrottledSource};
         let (skel, src) = wide(64);
         let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
         let root = u64::from(skel.reps[0].len);
         let budget = root + ((total - root) as f64 * budget_frac) as u64;
         let mode = if prefetch { Mode::Pre } else { Mode::NoPre };
-        let mut walk = Walkthrough::start(skel, src, params(mode, budget)).unwrap();
+        let src: Arc<dyn ByteSource> = if deadline > 0.0 {
+            let model = DiskModel {
+                latency: std::time::Duration::from_micros(200),
+                bytes_per_sec: 200e6,
+            };
+            let mut bytes = vec![0u8; src.len() as usize];
+            src.read_at(0, &mut bytes).unwrap();
+            Arc::new(ThrottledSource::new(MemSource::new(bytes), model))
+        } else {
+            src
+        };
+        let p = RuntimeParams { stall_deadline_s: deadline, ..params(mode, budget) };
+        let mut walk = Walkthrough::start(skel, src, p).unwrap();
         let mut r = NoneRenderer::new(0.0);
         // A random walk, with jumps, along and around the row of leaves.
         let (mut x, mut y, mut z, mut yaw) = (0.0f32, 0.5f32, 3.0f32, 0.0f32);
@@ -471,4 +486,67 @@ fn f_i_goes_all_around_when_the_all_around_front_fits_even_after_a_slow_first_fr
     assert_eq!(last.missing_reps, 0, "behind was prefetched at rest");
     // Never all around: the default margins do not reach behind.
     assert!(run(total, 0.0).last().unwrap().missing_reps > 0);
+}
+
+#[test]
+fn a_stall_deadline_draws_ancestors_for_what_is_late_and_loads_it_after_the_frame() {
+    use crate::disk::{DiskModel, ThrottledSource};
+    let (skel, mem) = wide(64);
+    let mut bytes = vec![0u8; mem.len() as usize];
+    mem.read_at(0, &mut bytes).unwrap();
+    let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    // 5 ms a seek against a 2 ms deadline: a turn's misses cannot all be
+    // read in time.
+    let model = DiskModel {
+        latency: std::time::Duration::from_millis(5),
+        bytes_per_sec: 20e6,
+    };
+    let half = std::f32::consts::FRAC_PI_2;
+    let mut poses = vec![pose(30.0, 0.5, 0.5, -half); 5];
+    poses.extend(vec![pose(30.0, 0.5, 0.5, half); 30]);
+    let run = |deadline_s: f32, mode: Mode| {
+        let src = Arc::new(ThrottledSource::new(MemSource::new(bytes.clone()), model));
+        let p = RuntimeParams {
+            frame_period_s: 0.04,
+            stall_deadline_s: deadline_s,
+            // F_I never reaches behind: the turn misses.
+            prefetch: PrefetchParams {
+                all_around_fit: 0.0,
+                max_margin_deg: 10.0,
+                ..PrefetchParams::default()
+            },
+            ..params(mode, total)
+        };
+        let mut walk = Walkthrough::start(skel.clone(), src, p).unwrap();
+        let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 25.0).unwrap();
+        check_frames(&frames, total);
+        frames
+    };
+    for mode in [Mode::NoPre, Mode::Pre] {
+        let late = run(0.002, mode);
+        let turn = &late[5];
+        assert!(turn.missing_reps > 1, "{mode:?}: the turn misses reps");
+        assert!(turn.late_reps > 0 && turn.late_reps <= turn.missing_reps);
+        assert!(
+            turn.substituted >= turn.late_reps,
+            "late reps are drawn as ancestors"
+        );
+        let read_late: u64 = late.iter().map(|f| f.late_bytes).sum();
+        assert!(
+            read_late > 0,
+            "{mode:?}: late reps are read after their frame"
+        );
+        let last = late.last().unwrap();
+        assert_eq!(last.missing_reps, 0, "{mode:?}: at rest, everything came");
+        assert_eq!(last.substituted, 0);
+        // Without a deadline P_R waits: nothing is late, nothing substituted.
+        let wait = run(0.0, mode);
+        assert!(wait.iter().all(|f| f.late_reps == 0 && f.late_bytes == 0));
+        assert_eq!(wait[5].substituted, 0);
+    }
+    let bad = RuntimeParams {
+        stall_deadline_s: -1.0,
+        ..params(Mode::Pre, total)
+    };
+    assert!(matches!(bad.check(), Err(RuntimeError::Params(_))));
 }

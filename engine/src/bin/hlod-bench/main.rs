@@ -130,6 +130,12 @@ struct Args {
     /// break-even gap is learnt; this caps it); 0 turns coalescing off.
     #[arg(long, default_value = "1MiB")]
     coalesce_gap: String,
+    /// Stall deadline in ms (0: off, the paper's protocol, P_R waits for
+    /// every missing rep): Stage II reads only what it can finish this long
+    /// after the fetch command; the rest is drawn as its nearest resident
+    /// ancestor (counted as substituted and late) and read after the frame.
+    #[arg(long, default_value_t = 0.0)]
+    stall_deadline: f32,
 }
 
 fn main() -> ExitCode {
@@ -233,6 +239,7 @@ fn run(a: Args) -> Result<()> {
         frame_period_s: if a.fps > 0.0 { 1.0 / a.fps } else { 0.0 },
         vdt_pool_bytes: vdt_pool,
         coalesce_max_gap: coalesce_gap,
+        stall_deadline_s: a.stall_deadline / 1e3,
         ..RuntimeParams::default()
     };
     println!(
@@ -387,6 +394,16 @@ fn run(a: Args) -> Result<()> {
     let mut table = summary_table(&rows);
     if skel.reps.iter().any(|r| r.is_vdt()) {
         table.push_str(&format!("\nView-dependence trees:\n\n{}", vdt_table(&rows)));
+    }
+    if a.stall_deadline > 0.0 {
+        table.push_str(&format!(
+            "\nStall deadline {} ms: Stage II MiB include the bytes read after it; late reps (of substituted): {}\n",
+            a.stall_deadline,
+            rows.iter()
+                .map(|r| format!("{} {}", r.mode, r.late_reps))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
     }
     if a.warmup > 0 {
         table.push_str(&format!(

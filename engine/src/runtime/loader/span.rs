@@ -170,9 +170,10 @@ impl Loader {
     }
 
     /// Whether rep `g` is a prefetch candidate worth keeping when a read
-    /// passes over it: queued in this classification and not resident.
+    /// passes over it: queued in this classification (or late in this
+    /// frame) and not resident.
     pub(super) fn wanted(&self, g: RepId) -> bool {
-        self.queued[g as usize] == self.class_gen
+        (self.queued[g as usize] == self.class_gen || self.is_late(g))
             && self.data[g as usize].is_none()
             && !self.failed[g as usize]
     }
