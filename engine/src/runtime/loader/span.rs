@@ -26,7 +26,8 @@ pub(super) struct IoCosts {
     pub(super) per_byte_s: f64,
     /// A moving average of the seek time (a seeking read less its transfer).
     pub(super) seek_s: f64,
-    /// A decaying maximum of the seek time.
+    /// A decaying maximum of the seek time (learnt once the transfer rate
+    /// is known).
     pub(super) seek_max_s: f64,
     /// Where P_I's last read ended.
     last_end: Option<u64>,
@@ -52,7 +53,12 @@ impl IoCosts {
             // prefetch still running when the fetch command arrives stalls P_R.
             self.first_block_s = t.max(self.first_block_s * 0.995);
             let seek = (t - bytes as f64 * self.per_byte_s).max(0.0);
-            self.seek_max_s = seek.max(self.seek_max_s * 0.995);
+            if self.per_byte_s > 0.0 {
+                // Until a transfer rate is known a read's transfer would
+                // count as seek time, and a large one would hold the
+                // maximum up for hundreds of reads.
+                self.seek_max_s = seek.max(self.seek_max_s * 0.95);
+            }
             if self.seek_s > 0.0 {
                 self.seek_s += Self::A * (seek - self.seek_s);
             } else {
