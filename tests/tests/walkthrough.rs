@@ -1,38 +1,52 @@
 //! The out-of-core runtime on a scene made by the builder, read from disk.
 
+use std::path::PathBuf;
 use std::sync::Arc;
 
-use engine::camera::{PathKind, generate_path};
+use engine::camera::{PathKind, Pose, generate_path};
 use engine::render::NoneRenderer;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough, run_path};
+use engine::skeleton::Skeleton;
 use engine::{ByteSource, FileSource, SceneFile};
 use glam::Vec3;
 use hlod_builder::build::{BuildParams, build_file};
 use hlod_builder::scenegen::plant::{PlantParams, write_plant};
 
-#[test]
-fn three_modes_on_one_path_keep_the_budget_and_draw_the_same_fronts() {
-    let dir = tempfile::tempdir().unwrap();
+/// A generated plant built into `dir/plant.hlod`: the scene's path, its
+/// skeleton, its rep bytes and a fly-through of `frames` poses.
+fn plant_and_flythrough(
+    dir: &tempfile::TempDir,
+    seed: u64,
+    objects: usize,
+    triangles: u64,
+    frames: usize,
+) -> (PathBuf, Arc<Skeleton>, u64, Vec<Pose>) {
     let glb = dir.path().join("plant.glb");
     let scene_path = dir.path().join("plant.hlod");
     let p = PlantParams {
-        seed: 5,
-        objects: 200,
-        triangles: 150_000,
+        seed,
+        objects,
+        triangles,
     };
     write_plant(&p, &glb).unwrap();
     build_file(&glb, &scene_path, &BuildParams::default(), false).unwrap();
-    let scene = SceneFile::open(&scene_path).unwrap();
-    let skel = Arc::new(scene.skeleton().clone());
+    let skel = Arc::new(SceneFile::open(&scene_path).unwrap().skeleton().clone());
     let data: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
-    let budget = data / 20;
     let root = &skel.nodes[0];
     let poses = generate_path(
         PathKind::Flythrough,
         Vec3::from(root.bbox_min),
         Vec3::from(root.bbox_max),
-        400,
+        frames,
     );
+    (scene_path, skel, data, poses)
+}
+
+#[test]
+fn three_modes_on_one_path_keep_the_budget_and_draw_the_same_fronts() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene_path, skel, data, poses) = plant_and_flythrough(&dir, 5, 200, 150_000, 400);
+    let budget = data / 20;
     let mut fronts = Vec::new();
     for mode in [Mode::Incore, Mode::NoPre, Mode::Pre] {
         let source: Arc<dyn ByteSource> = Arc::new(FileSource::open(&scene_path).unwrap());
@@ -92,25 +106,8 @@ fn committed_paths_parse_and_match_the_generator() {
 fn slow_disk_reads_through_gaps_and_resumes_preempted_prefetches_within_the_budget() {
     use engine::disk::{DiskModel, ThrottledSource};
     let dir = tempfile::tempdir().unwrap();
-    let glb = dir.path().join("plant.glb");
-    let scene_path = dir.path().join("plant.hlod");
-    let p = PlantParams {
-        seed: 9,
-        objects: 300,
-        triangles: 600_000,
-    };
-    write_plant(&p, &glb).unwrap();
-    build_file(&glb, &scene_path, &BuildParams::default(), false).unwrap();
-    let skel = Arc::new(SceneFile::open(&scene_path).unwrap().skeleton().clone());
-    let data: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    let (scene_path, skel, data, poses) = plant_and_flythrough(&dir, 9, 300, 600_000, 300);
     let budget = data / 10;
-    let root = &skel.nodes[0];
-    let poses = generate_path(
-        PathKind::Flythrough,
-        Vec3::from(root.bbox_min),
-        Vec3::from(root.bbox_max),
-        300,
-    );
     // 4 ms seeks, 8 MB/s: a 4 KiB block takes 0.5 ms, so prefetch reads of
     // several blocks are preempted by the next frame's fetch command.
     let model = DiskModel {

@@ -68,6 +68,22 @@ fn check_frames(frames: &[FrameMetrics], budget: u64) {
     }
 }
 
+/// `src` behind a disk model: `latency` a seek, `bytes_per_sec`.
+fn throttled(
+    src: &Arc<dyn ByteSource>,
+    latency: std::time::Duration,
+    bytes_per_sec: f64,
+) -> Arc<dyn ByteSource> {
+    use crate::disk::{DiskModel, ThrottledSource};
+    let mut bytes = vec![0u8; src.len() as usize];
+    src.read_at(0, &mut bytes).unwrap();
+    let model = DiskModel {
+        latency,
+        bytes_per_sec,
+    };
+    Arc::new(ThrottledSource::new(MemSource::new(bytes), model))
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
     #[test]
@@ -78,20 +94,13 @@ proptest! {
         // A stall deadline (s) on a disk with 0.2 ms seeks, or none.
         deadline in prop_oneof![Just(0.0f32), 0.0001f32..0.001],
     ) {
-        use crate::disk::{DiskModel, ThrottledSource};
         let (skel, src) = wide(64);
         let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
         let root = u64::from(skel.reps[0].len);
         let budget = root + ((total - root) as f64 * budget_frac) as u64;
         let mode = if prefetch { Mode::Pre } else { Mode::NoPre };
-        let src: Arc<dyn ByteSource> = if deadline > 0.0 {
-            let model = DiskModel {
-                latency: std::time::Duration::from_micros(200),
-                bytes_per_sec: 200e6,
-            };
-            let mut bytes = vec![0u8; src.len() as usize];
-            src.read_at(0, &mut bytes).unwrap();
-            Arc::new(ThrottledSource::new(MemSource::new(bytes), model))
+        let src = if deadline > 0.0 {
+            throttled(&src, std::time::Duration::from_micros(200), 200e6)
         } else {
             src
         };
@@ -302,22 +311,12 @@ impl ByteSource for SeekCounter {
 
 #[test]
 fn reading_through_short_gaps_saves_seeks_and_changes_nothing_drawn() {
-    use crate::disk::{DiskModel, ThrottledSource};
     let (skel, mem) = wide(64);
-    let bytes = {
-        let mut b = vec![0u8; mem.len() as usize];
-        mem.read_at(0, &mut b).unwrap();
-        b
-    };
     let budget = skel.reps.iter().map(|r| u64::from(r.len)).sum::<u64>() / 3;
     // 10 ms seeks, 4 MB/s (a 16 KiB block takes 4 ms, well above the
     // sleep granularity, which would otherwise make the learnt transfer
     // rate look slower under load): reading through a gap of < 40 KB
     // beats a seek.
-    let model = DiskModel {
-        latency: std::time::Duration::from_millis(10),
-        bytes_per_sec: 4e6,
-    };
     let poses: Vec<Pose> = (0..40)
         .map(|i| pose(i as f32 * 1.2, 0.5, 2.0, 1.2 + (i as f32 * 0.3).sin()))
         .collect();
@@ -329,7 +328,7 @@ fn reading_through_short_gaps_saves_seeks_and_changes_nothing_drawn() {
         (Mode::Pre, 1 << 20),
     ] {
         let counter = Arc::new(SeekCounter {
-            inner: Arc::new(ThrottledSource::new(MemSource::new(bytes.clone()), model)),
+            inner: throttled(&mem, std::time::Duration::from_millis(10), 4e6),
             state: Default::default(),
         });
         let p = RuntimeParams {
@@ -446,23 +445,16 @@ fn the_lookahead_prefetches_the_lod_switches_of_an_approach() {
 
 #[test]
 fn f_i_goes_all_around_when_the_all_around_front_fits_even_after_a_slow_first_frame() {
-    use crate::disk::{DiskModel, ThrottledSource};
     let (skel, mem) = wide(64);
-    let mut bytes = vec![0u8; mem.len() as usize];
-    mem.read_at(0, &mut bytes).unwrap();
     let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
     // 5 ms a seek: the first front takes longer than a frame period, so
     // the first prefetch waits for the next fetch command, and the camera
     // does not move again before it turns round.
-    let model = DiskModel {
-        latency: std::time::Duration::from_millis(5),
-        bytes_per_sec: 20e6,
-    };
     let half = std::f32::consts::FRAC_PI_2;
     let mut poses = vec![pose(30.0, 0.5, 0.5, -half); 40];
     poses.push(pose(30.0, 0.5, 0.5, half));
     let run = |budget: u64, all_around_fit: f32| {
-        let src = Arc::new(ThrottledSource::new(MemSource::new(bytes.clone()), model));
+        let src = throttled(&mem, std::time::Duration::from_millis(5), 20e6);
         let p = RuntimeParams {
             frame_period_s: 0.05,
             prefetch: PrefetchParams {
@@ -490,22 +482,15 @@ fn f_i_goes_all_around_when_the_all_around_front_fits_even_after_a_slow_first_fr
 
 #[test]
 fn a_stall_deadline_draws_ancestors_for_what_is_late_and_loads_it_after_the_frame() {
-    use crate::disk::{DiskModel, ThrottledSource};
     let (skel, mem) = wide(64);
-    let mut bytes = vec![0u8; mem.len() as usize];
-    mem.read_at(0, &mut bytes).unwrap();
     let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
     // 5 ms a seek against a 2 ms deadline: a turn's misses cannot all be
     // read in time.
-    let model = DiskModel {
-        latency: std::time::Duration::from_millis(5),
-        bytes_per_sec: 20e6,
-    };
     let half = std::f32::consts::FRAC_PI_2;
     let mut poses = vec![pose(30.0, 0.5, 0.5, -half); 5];
     poses.extend(vec![pose(30.0, 0.5, 0.5, half); 30]);
     let run = |deadline_s: f32, mode: Mode| {
-        let src = Arc::new(ThrottledSource::new(MemSource::new(bytes.clone()), model));
+        let src = throttled(&mem, std::time::Duration::from_millis(5), 20e6);
         let p = RuntimeParams {
             frame_period_s: 0.04,
             stall_deadline_s: deadline_s,

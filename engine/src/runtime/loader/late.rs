@@ -25,12 +25,7 @@ impl Loader {
         if d <= 0.0 {
             return true;
         }
-        let rec = self.skeleton.reps[r as usize];
-        let need = self.costs.first_block_estimate(
-            rec.offset,
-            u64::from(rec.len),
-            self.params.block_bytes as u64,
-        );
+        let need = self.first_block_s(r);
         Instant::now() + Duration::from_secs_f64(need) <= at + Duration::from_secs_f32(d)
     }
 

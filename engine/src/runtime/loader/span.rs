@@ -267,27 +267,26 @@ impl Loader {
         false
     }
 
-    /// Whether the first block of a prefetch read of rep `r` (a seek unless
-    /// it goes on from the last read, and up to a block; the rest may be
-    /// preempted and resumed) ends before the next fetch command is due. A
-    /// read that overruns delays P_R's next frame by the overrun: the
-    /// estimate is per read, so that a small rep still fits at the end of a
-    /// frame where a large one would not.
+    /// Whether the first block of a prefetch read of rep `r` ends before
+    /// the next fetch command is due. A read that overruns delays P_R's
+    /// next frame by the overrun: the estimate is per read, so that a small
+    /// rep still fits at the end of a frame where a large one would not.
     pub(super) fn first_block_in_time(&self, r: RepId) -> bool {
+        self.ends_in_time(self.first_block_s(r))
+    }
+
+    /// The expected time of the first block of a read of rep `r` (a seek
+    /// unless it goes on from the last read, and up to a block; the rest
+    /// may be preempted and resumed), from where a preempted read of it
+    /// stopped.
+    pub(super) fn first_block_s(&self, r: RepId) -> f64 {
         let rec = self.skeleton.reps[r as usize];
-        let bytes = match &self.partial {
-            Some(p) if p.rep == r => (p.buf.len() - p.done) as u64,
-            _ => u64::from(rec.len),
+        let (at, bytes) = match &self.partial {
+            Some(p) if p.rep == r => (rec.offset + p.done as u64, (p.buf.len() - p.done) as u64),
+            _ => (rec.offset, u64::from(rec.len)),
         };
-        let at = match &self.partial {
-            Some(p) if p.rep == r => rec.offset + p.done as u64,
-            _ => rec.offset,
-        };
-        self.ends_in_time(self.costs.first_block_estimate(
-            at,
-            bytes,
-            self.params.block_bytes as u64,
-        ))
+        self.costs
+            .first_block_estimate(at, bytes, self.params.block_bytes as u64)
     }
 
     /// The same for `len` bytes read on from where the last read ended.
