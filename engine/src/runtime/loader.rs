@@ -124,6 +124,9 @@ pub(super) struct Loader {
     /// The camera's motion per frame, and its last position.
     motion: glam::Vec3,
     last_pos: Option<glam::Vec3>,
+    /// The camera's rotation per frame, and its last rotation.
+    spin: glam::Quat,
+    last_rot: Option<glam::Quat>,
 }
 
 impl Loader {
@@ -190,6 +193,8 @@ impl Loader {
             late_stamp: vec![u32::MAX; n],
             motion: glam::Vec3::ZERO,
             last_pos: None,
+            spin: glam::Quat::IDENTITY,
+            last_rot: None,
         }
     }
 
@@ -242,6 +247,8 @@ impl Loader {
                     self.wait_fetch = false;
                     self.motion = ahead::motion(self.last_pos, view.pose.position);
                     self.last_pos = Some(view.pose.position);
+                    self.spin = ahead::spin(self.last_rot, view.pose.rotation);
+                    self.last_rot = Some(view.pose.rotation);
                     let expect = period.max(self.fetch_interval_s);
                     // 1 % early: frame pacing wakes P_R a little late, not
                     // early (reads are timed per read, with their own margin).

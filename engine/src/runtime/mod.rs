@@ -90,8 +90,9 @@ pub struct PrefetchParams {
     /// Reps of the F_I front up to this many bytes are also read by the
     /// sweep, in file order (0: off; see `loader/sweep.rs`).
     pub sweep_bytes: u32,
-    /// Frames of camera motion extrapolated for the lookahead fronts (0:
-    /// off; see `loader/ahead.rs`).
+    /// Frames of camera motion (position and rotation) extrapolated for the
+    /// lookahead fronts, one view front per frame ahead (0: off; see
+    /// `loader/ahead.rs`).
     pub lookahead_frames: u32,
     /// F_I goes all around the eye whenever the all-around front at ε takes
     /// at most this share of the footprint (0: never; the margins above

@@ -444,6 +444,41 @@ fn the_lookahead_prefetches_the_lod_switches_of_an_approach() {
 }
 
 #[test]
+fn the_lookahead_follows_a_pan_and_prefetches_what_turns_into_view() {
+    let (skel, src) = wide(64);
+    let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    // In the middle of the row, turning round at 6° a frame: each frame
+    // brings leaves into view that were behind the camera.
+    let poses: Vec<Pose> = (0..40)
+        .map(|i| pose(32.0, 0.5, 0.5, (i as f32 * 6.0).to_radians()))
+        .collect();
+    let run = |lookahead_frames: u32| {
+        let p = RuntimeParams {
+            frame_period_s: 0.05,
+            prefetch: PrefetchParams {
+                // No PAR/CHD and F_I as F_R: only the lookahead foresees
+                // what the turn brings into view.
+                depth: 0,
+                margin_deg: 0.0,
+                max_margin_deg: 0.0,
+                all_around_fit: 0.0,
+                lookahead_frames,
+                ..PrefetchParams::default()
+            },
+            ..params(Mode::Pre, total)
+        };
+        let mut walk = Walkthrough::start(skel.clone(), src.clone(), p).unwrap();
+        let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 20.0).unwrap();
+        check_frames(&frames, total);
+        // The rotation is known from the second fetch command on.
+        frames[3..].iter().map(|f| f.miss_new).sum::<u32>()
+    };
+    let without = run(0);
+    assert!(without > 10, "{without} reps turned into view unprefetched");
+    assert_eq!(run(10), 0, "the lookahead missed what the turn showed");
+}
+
+#[test]
 fn f_i_goes_all_around_when_the_all_around_front_fits_even_after_a_slow_first_frame() {
     let (skel, mem) = wide(64);
     let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();

@@ -9,13 +9,21 @@
 //! whose projected error is near ε, approaching or not; the position
 //! extrapolated from the last two fetch commands says which ones the
 //! motion will switch: the all-around fronts of the positions 5–10 frames
-//! ahead hold 95 % of them. P_I computes the F_I fronts of the viewpoints
-//! `lookahead_frames / 3` and `lookahead_frames` ahead (same orientation,
-//! same enlarged frustum) and serves the reps of the nearer one first, each
-//! in the order of their angle to the line of sight, before the bins. The
-//! resident ones are touched so that no prefetch evicts them.
+//! ahead hold 95 % of them. The viewpoint is extrapolated from the last two
+//! fetch commands, in position and in rotation (a pan goes on turning).
+//!
+//! On a slow disk P_I reads only a few reps a frame, so the order is what
+//! counts. P_I computes the view fronts (F_R, no margin) of each of the
+//! `lookahead_frames` viewpoints ahead and serves their reps by the frame
+//! that first draws them, nearest first; then the F_I fronts of the
+//! viewpoints `lookahead_frames / 3` and `lookahead_frames` ahead; each
+//! group in the order of the angle to the line of sight, all before the
+//! bins. (Served by angle alone, a large object beside the path, whose box
+//! centre is far off the line of sight, came after hundreds of F_I reps
+//! that the view would not reach for seconds, and was missed.) The resident
+//! reps are touched so that no prefetch evicts them.
 
-use glam::Vec3;
+use glam::{Quat, Vec3};
 
 use super::{LoadError, Loader};
 use crate::camera::View;
@@ -27,8 +35,12 @@ impl Loader {
         self.ahead.clear();
         self.ahead_at = 0;
         let k = self.params.prefetch.lookahead_frames;
-        let v = self.motion;
-        if k == 0 || !v.is_finite() || v.length_squared() == 0.0 {
+        let v = if self.motion.is_finite() {
+            self.motion
+        } else {
+            Vec3::ZERO
+        };
+        if k == 0 || (v.length_squared() == 0.0 && self.spin.to_axis_angle().1 == 0.0) {
             return;
         }
         let Some(own) = self.class_frustum else {
@@ -36,14 +48,18 @@ impl Loader {
         };
         let mut front = std::mem::take(&mut self.scratch_ahead);
         let mut keyed: Vec<(u32, u32, RepId)> = Vec::new();
-        let horizons = [(k / 3).max(1), k];
-        for (h, &frames) in horizons.iter().enumerate() {
-            if h > 0 && frames == horizons[0] {
-                break;
-            }
+        // First the view fronts (F_R) of each frame ahead, nearest first:
+        // what the motion will draw next; then F_I's fronts at two horizons.
+        let mut passes: Vec<(u32, f32)> = (1..=k).map(|f| (f, 0.0)).collect();
+        passes.push(((k / 3).max(1), margin));
+        if k > (k / 3).max(1) {
+            passes.push((k, margin));
+        }
+        for (stage, &(frames, m)) in passes.iter().enumerate() {
             let mut ahead = *view;
             ahead.pose.position += v * frames as f32;
-            let f = ahead.frustum(margin);
+            ahead.pose.rotation = spin_ahead(self.spin, frames) * view.pose.rotation;
+            let f = ahead.frustum(m);
             self.index
                 .compute(&ahead, &f, self.params.tolerance_px, &mut front);
             for &r in &front {
@@ -57,7 +73,7 @@ impl Loader {
                 self.queued[r as usize] = self.class_gen;
                 let (mn, mx) = self.index.node_box(self.skeleton.reps[r as usize].node);
                 let angle = own.angle_to_box(mn, mx);
-                keyed.push((h as u32, angle.to_bits(), r));
+                keyed.push((stage as u32, angle.to_bits(), r));
             }
         }
         // Angles are non-negative: their bits order as the values do. A rep
@@ -99,6 +115,24 @@ impl Loader {
     pub(super) fn ahead_pending(&self) -> bool {
         self.ahead_at < self.ahead.len()
     }
+}
+
+/// The rotation `spin` (per frame) continued for `frames` frames, at most
+/// half a turn.
+fn spin_ahead(spin: Quat, frames: u32) -> Quat {
+    let (axis, angle) = spin.to_axis_angle();
+    if !angle.is_finite() || angle == 0.0 {
+        return Quat::IDENTITY;
+    }
+    Quat::from_axis_angle(axis, (angle * frames as f32).min(std::f32::consts::PI))
+}
+
+/// The camera's rotation per frame: from the previous rotation to `now`
+/// (world frame: `spin * prev = now`).
+pub(super) fn spin(prev: Option<Quat>, now: Quat) -> Quat {
+    let q = prev.map_or(Quat::IDENTITY, |p| (now * p.inverse()).normalize());
+    // The short way round.
+    if q.w < 0.0 { -q } else { q }
 }
 
 /// The camera's motion per frame: from the previous position to `now`.
