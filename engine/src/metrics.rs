@@ -71,16 +71,20 @@ pub struct FrameMetrics {
     /// their frame's deadline.
     pub late_reps: u32,
     pub late_bytes: u64,
+    /// P_I's time classifying fronts for prefetching (the F_I front, its
+    /// bins and the lookahead fronts) since the previous frame; CPU time
+    /// on P_I's thread, not the disk's.
+    pub classify_ms: f64,
 }
 
 /// CSV header matching [`FrameMetrics::csv_row`].
-pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes";
+pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms";
 
 impl FrameMetrics {
     /// One CSV line (no newline).
     pub fn csv_row(&self) -> String {
         format!(
-            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{:.3},{},{},{},{},{},{},{}",
+            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{:.3},{},{},{},{},{},{},{},{:.3}",
             self.frame,
             self.mode,
             self.frame_ms,
@@ -121,7 +125,8 @@ impl FrameMetrics {
             self.stage2_seeks,
             self.prefetch_seeks,
             self.late_reps,
-            self.late_bytes
+            self.late_bytes,
+            self.classify_ms
         )
     }
 }

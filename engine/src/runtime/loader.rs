@@ -258,7 +258,9 @@ impl Loader {
                         return;
                     }
                     if self.params.mode == Mode::Pre {
+                        let t = Instant::now();
                         self.classify_front(&view, turn_rad);
+                        self.stats.classify_s += t.elapsed().as_secs_f64();
                     }
                 }
                 Cmd::Unusable(r) => self.unusable(r),

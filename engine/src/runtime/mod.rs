@@ -320,6 +320,8 @@ struct StageStats {
     /// and bytes read after their frame's deadline (on demand, late).
     late_reps: u32,
     late_bytes: u64,
+    /// P_I's time classifying fronts for prefetching (bins and lookahead).
+    classify_s: f64,
 }
 
 /// P_R: drives frames against a running P_I.
@@ -583,6 +585,7 @@ impl Walkthrough {
         m.prefetch_queue = stats.prefetch_queue;
         m.late_reps = stats.late_reps;
         m.late_bytes = stats.late_bytes;
+        m.classify_ms = stats.classify_s * 1e3;
         m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok(m)
     }

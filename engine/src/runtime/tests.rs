@@ -470,6 +470,8 @@ fn the_lookahead_follows_a_pan_and_prefetches_what_turns_into_view() {
         let mut walk = Walkthrough::start(skel.clone(), src.clone(), p).unwrap();
         let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 20.0).unwrap();
         check_frames(&frames, total);
+        // P_I's classification is timed (and only when it prefetches).
+        assert!(frames.iter().any(|f| f.classify_ms > 0.0));
         // The rotation is known from the second fetch command on.
         frames[3..].iter().map(|f| f.miss_new).sum::<u32>()
     };
