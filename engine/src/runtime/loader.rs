@@ -30,7 +30,7 @@ use crate::front::FrontIndex;
 use crate::io::ByteSource;
 use crate::prefetch::Bins;
 use crate::skeleton::{RepId, Skeleton};
-use span::{FileOrder, IoCosts, Partial};
+use span::{FileOrder, IoCosts, Partial, ReadQueue};
 
 /// Why a rep was not loaded.
 enum LoadError {
@@ -112,13 +112,11 @@ pub(super) struct Loader {
     /// P_I has no time for another prefetch read before the next fetch
     /// command (the candidates stay for the frames after it).
     wait_fetch: bool,
-    /// The reps of the fronts ahead, in service order, and the next one.
-    ahead: Vec<RepId>,
-    ahead_at: usize,
+    /// The reps of the fronts ahead, in service order.
+    ahead: ReadQueue,
     scratch_ahead: Vec<RepId>,
     /// Front reps past the stall deadline, read after the frame (`late`).
-    late: Vec<RepId>,
-    late_at: usize,
+    late: ReadQueue,
     /// `pin_gen` of the frame a rep went late in.
     late_stamp: Vec<u32>,
     /// The camera's motion per frame, and its last position.
@@ -185,11 +183,9 @@ impl Loader {
             sweep_at: 0,
             sweep_turn: false,
             wait_fetch: false,
-            ahead: Vec::new(),
-            ahead_at: 0,
+            ahead: ReadQueue::default(),
             scratch_ahead: Vec::new(),
-            late: Vec::new(),
-            late_at: 0,
+            late: ReadQueue::default(),
             late_stamp: vec![u32::MAX; n],
             motion: glam::Vec3::ZERO,
             last_pos: None,
@@ -210,14 +206,14 @@ impl Loader {
             let cmd = if let Some(c) = self.pending.take() {
                 c
             } else if !self.wait_fetch
-                && (self.late_pending()
+                && (self.late.pending()
                     || (self.params.mode == Mode::Pre
-                        && (!self.bins.is_empty() || self.ahead_pending())))
+                        && (!self.bins.is_empty() || self.ahead.pending())))
             {
                 match self.cmds.try_recv() {
                     Ok(c) => c,
                     Err(TryRecvError::Empty) => {
-                        if !self.late_step() && self.params.mode == Mode::Pre {
+                        if !self.serve(|l| &mut l.late) && self.params.mode == Mode::Pre {
                             self.prefetch_step();
                         }
                         continue;
@@ -379,7 +375,6 @@ impl Loader {
         // In file order: neighbouring reps are read without a seek.
         missing.sort_unstable_by_key(|&r| self.skeleton.reps[r as usize].offset);
         self.late.clear();
-        self.late_at = 0;
         for (i, &r) in missing.iter().enumerate() {
             if !self.in_time_for_frame(r) {
                 // Past the stall deadline: ancestors now, the reps after.
@@ -388,7 +383,7 @@ impl Loader {
                     self.late_stamp[x as usize] = self.pin_gen;
                     self.substitute(x)?;
                 }
-                self.late.extend_from_slice(&missing[i..]);
+                self.late.reps.extend_from_slice(&missing[i..]);
                 break;
             }
             if let Some(end) = self.costs.last_end() {
@@ -615,7 +610,7 @@ impl Loader {
     /// when their bins come up: a neighbour is read only when its own
     /// priority says it is needed soon (P_I has few seeks per frame).
     fn prefetch_step(&mut self) {
-        if self.partial.is_none() && self.ahead_step() {
+        if self.partial.is_none() && self.serve(|l| &mut l.ahead) {
             return;
         }
         self.sweep_turn = !self.sweep_turn;

@@ -405,35 +405,44 @@ fn an_all_around_f_i_and_the_sweep_leave_nothing_missing_after_a_sudden_turn() {
     assert!(narrow.last().unwrap().missing_reps > 0);
 }
 
-#[test]
-fn the_lookahead_prefetches_the_lod_switches_of_an_approach() {
+/// Walks `poses` through `wide(64)` with F_I as F_R and no PAR/CHD, so
+/// that only the lookahead (over `lookahead_frames`) foresees what a frame
+/// will draw; checks the budget and returns the frames.
+fn lookahead_walk(poses: &[Pose], lookahead_frames: u32) -> Vec<FrameMetrics> {
     let (skel, src) = wide(64);
     let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    let p = RuntimeParams {
+        frame_period_s: 0.05,
+        prefetch: PrefetchParams {
+            depth: 0,
+            margin_deg: 0.0,
+            max_margin_deg: 0.0,
+            all_around_fit: 0.0,
+            lookahead_frames,
+            ..PrefetchParams::default()
+        },
+        ..params(Mode::Pre, total)
+    };
+    let mut walk = Walkthrough::start(skel, src, p).unwrap();
+    let frames = run_path(&mut walk, poses, &mut NoneRenderer::new(0.0), 20.0).unwrap();
+    check_frames(&frames, total);
+    frames
+}
+
+#[test]
+fn the_lookahead_prefetches_the_lod_switches_of_an_approach() {
     // Along the row of leaves at one leaf a frame: each leaf switches to a
     // finer LOD as the camera comes within 16 and then 8 leaves of it.
     let along = std::f32::consts::FRAC_PI_2;
     let poses: Vec<Pose> = (0..50)
         .map(|i| pose(100.0 - i as f32, 0.5, 0.5, along))
         .collect();
-    let run = |lookahead_frames: u32| {
-        let p = RuntimeParams {
-            frame_period_s: 0.05,
-            prefetch: PrefetchParams {
-                // No PAR/CHD and F_I as F_R: only the lookahead foresees a switch.
-                depth: 0,
-                margin_deg: 0.0,
-                max_margin_deg: 0.0,
-                all_around_fit: 0.0,
-                lookahead_frames,
-                ..PrefetchParams::default()
-            },
-            ..params(Mode::Pre, total)
-        };
-        let mut walk = Walkthrough::start(skel.clone(), src.clone(), p).unwrap();
-        let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 20.0).unwrap();
-        check_frames(&frames, total);
-        // The motion is known from the second fetch command on.
-        frames[3..].iter().map(|f| f.miss_lod).sum::<u32>()
+    // The motion is known from the second fetch command on.
+    let run = |k| -> u32 {
+        lookahead_walk(&poses, k)[3..]
+            .iter()
+            .map(|f| f.miss_lod)
+            .sum()
     };
     let without = run(0);
     assert!(
@@ -445,35 +454,17 @@ fn the_lookahead_prefetches_the_lod_switches_of_an_approach() {
 
 #[test]
 fn the_lookahead_follows_a_pan_and_prefetches_what_turns_into_view() {
-    let (skel, src) = wide(64);
-    let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
     // In the middle of the row, turning round at 6° a frame: each frame
     // brings leaves into view that were behind the camera.
     let poses: Vec<Pose> = (0..40)
         .map(|i| pose(32.0, 0.5, 0.5, (i as f32 * 6.0).to_radians()))
         .collect();
-    let run = |lookahead_frames: u32| {
-        let p = RuntimeParams {
-            frame_period_s: 0.05,
-            prefetch: PrefetchParams {
-                // No PAR/CHD and F_I as F_R: only the lookahead foresees
-                // what the turn brings into view.
-                depth: 0,
-                margin_deg: 0.0,
-                max_margin_deg: 0.0,
-                all_around_fit: 0.0,
-                lookahead_frames,
-                ..PrefetchParams::default()
-            },
-            ..params(Mode::Pre, total)
-        };
-        let mut walk = Walkthrough::start(skel.clone(), src.clone(), p).unwrap();
-        let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 20.0).unwrap();
-        check_frames(&frames, total);
-        // P_I's classification is timed (and only when it prefetches).
+    let run = |k| -> u32 {
+        let frames = lookahead_walk(&poses, k);
+        // P_I's classification is timed.
         assert!(frames.iter().any(|f| f.classify_ms > 0.0));
         // The rotation is known from the second fetch command on.
-        frames[3..].iter().map(|f| f.miss_new).sum::<u32>()
+        frames[3..].iter().map(|f| f.miss_new).sum()
     };
     let without = run(0);
     assert!(without > 10, "{without} reps turned into view unprefetched");

@@ -138,6 +138,14 @@ struct Args {
     stall_deadline: f32,
 }
 
+/// A size as `--budget` takes it, or `0` / `off`.
+fn size_or_off(s: &str, data_bytes: u64) -> Result<u64> {
+    match s.trim() {
+        "0" | "off" => Ok(0),
+        g => engine::cli::parse_budget(g, data_bytes),
+    }
+}
+
 fn main() -> ExitCode {
     engine::cli::main_with(|| run(Args::parse()))
 }
@@ -178,15 +186,9 @@ fn run(a: Args) -> Result<()> {
     let skel = Arc::new(scene.skeleton().clone());
     let data_bytes: u64 = skel.reps.iter().map(|r| r.extent()).sum();
     let vdt_pool = engine::cli::parse_budget(&a.vdt_pool, data_bytes)?;
-    let coalesce_gap = match a.coalesce_gap.trim() {
-        "0" | "off" => 0,
-        g => engine::cli::parse_budget(g, data_bytes).context("--coalesce-gap")?,
-    };
-    let sweep_bytes = match a.sweep.trim() {
-        "0" | "off" => 0,
-        g => u32::try_from(engine::cli::parse_budget(g, data_bytes).context("--sweep")?)
-            .context("--sweep: at most 4 GiB")?,
-    };
+    let coalesce_gap = size_or_off(&a.coalesce_gap, data_bytes).context("--coalesce-gap")?;
+    let sweep_bytes = u32::try_from(size_or_off(&a.sweep, data_bytes).context("--sweep")?)
+        .context("--sweep: at most 4 GiB")?;
     let budgets: Vec<u64> = match &a.budgets {
         Some(list) => list
             .split(',')

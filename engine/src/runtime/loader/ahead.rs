@@ -27,18 +27,17 @@
 
 use glam::{Quat, Vec3};
 
-use super::{LoadError, Loader};
+use super::Loader;
+use crate::camera::View;
+use crate::skeleton::RepId;
 
 /// How long P_I plans the lookahead before a waiting fetch command stops it.
 const PLAN_BUDGET_S: f64 = 1e-3;
-use crate::camera::View;
-use crate::skeleton::RepId;
 
 impl Loader {
     /// Plans the lookahead reads for `view` (F_I widened by `margin` rad).
     pub(super) fn plan_ahead(&mut self, view: &View, margin: f32) {
         self.ahead.clear();
-        self.ahead_at = 0;
         let k = self.params.prefetch.lookahead_frames;
         let v = if self.motion.is_finite() {
             self.motion
@@ -95,39 +94,8 @@ impl Loader {
         keyed.sort_unstable_by_key(|&(h, a, r)| (r, h, a));
         keyed.dedup_by_key(|x| x.2);
         keyed.sort_unstable();
-        self.ahead.extend(keyed.into_iter().map(|(_, _, r)| r));
+        self.ahead.reps.extend(keyed.into_iter().map(|(_, _, r)| r));
         self.scratch_ahead = front;
-    }
-
-    /// One lookahead read, and on through the file while cheap. Returns
-    /// whether P_I read (or decided to wait for the next fetch command).
-    pub(super) fn ahead_step(&mut self) -> bool {
-        while self.ahead_at < self.ahead.len() {
-            let r = self.ahead[self.ahead_at];
-            self.ahead_at += 1;
-            if !self.wanted(r) {
-                continue;
-            }
-            if !self.first_block_in_time(r) {
-                // Not even its seek before the next frame: wait for the
-                // fetch command.
-                self.ahead_at -= 1;
-                self.wait_fetch = true;
-                return true;
-            }
-            match self.prefetch_read(r) {
-                Ok(()) | Err(LoadError::Failed) | Err(LoadError::Preempted) => {}
-                // No room without evicting what must stay: the rest waits.
-                Err(LoadError::NoRoom) => self.ahead.clear(),
-            }
-            return true;
-        }
-        false
-    }
-
-    /// Whether lookahead reads wait.
-    pub(super) fn ahead_pending(&self) -> bool {
-        self.ahead_at < self.ahead.len()
     }
 }
 

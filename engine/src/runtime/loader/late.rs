@@ -7,12 +7,14 @@
 //! transfer) ends within the deadline after the fetch command. The reps
 //! left are drawn as their nearest resident ancestor — coarser, counted as
 //! substituted and late — and read right after the frame, before any
-//! prefetch, so that the next frame draws them. Their bytes are demand
-//! bytes (`late_bytes`), reported with Stage II's.
+//! prefetch (preemptible, as a prefetch read is; a preempted one is
+//! resumed by the next Stage II if still missing), so that the next frame
+//! draws them. Their bytes are demand bytes (`late_bytes`), reported with
+//! Stage II's.
 
 use std::time::{Duration, Instant};
 
-use super::{LoadError, Loader};
+use super::Loader;
 use crate::skeleton::RepId;
 
 impl Loader {
@@ -27,35 +29,6 @@ impl Loader {
         }
         let need = self.first_block_s(r);
         Instant::now() + Duration::from_secs_f64(need) <= at + Duration::from_secs_f32(d)
-    }
-
-    /// Whether late reps wait to be read.
-    pub(super) fn late_pending(&self) -> bool {
-        self.late_at < self.late.len()
-    }
-
-    /// Reads the next late rep, and on through the file to the next
-    /// candidates while cheap (preemptible, as a prefetch read is; a
-    /// preempted one is resumed by the next Stage II if still missing).
-    /// Returns whether it read or decided to wait for the fetch command.
-    pub(super) fn late_step(&mut self) -> bool {
-        while self.late_at < self.late.len() {
-            let r = self.late[self.late_at];
-            self.late_at += 1;
-            if self.data[r as usize].is_some() || self.failed[r as usize] {
-                continue;
-            }
-            if !self.first_block_in_time(r) {
-                self.late_at -= 1;
-                self.wait_fetch = true;
-                return true;
-            }
-            if let Err(LoadError::NoRoom) = self.prefetch_read(r) {
-                self.late.clear();
-            }
-            return true;
-        }
-        false
     }
 
     /// Whether rep `r` is late: in this frame's front and past its deadline.

@@ -120,6 +120,25 @@ pub(super) struct Partial {
     pub(super) done: usize,
 }
 
+/// Reps to read in order (the lookahead's, the late ones) and the next one.
+#[derive(Debug, Default)]
+pub(super) struct ReadQueue {
+    pub(super) reps: Vec<RepId>,
+    at: usize,
+}
+
+impl ReadQueue {
+    pub(super) fn clear(&mut self) {
+        self.reps.clear();
+        self.at = 0;
+    }
+
+    /// Whether reps wait to be read.
+    pub(super) fn pending(&self) -> bool {
+        self.at < self.reps.len()
+    }
+}
+
 /// The reps in file order.
 #[derive(Clone, Debug, Default)]
 pub(super) struct FileOrder {
@@ -299,6 +318,33 @@ impl Loader {
             return true;
         };
         Instant::now() + Duration::from_secs_f64(need_s) <= due
+    }
+
+    /// One read from the queue `queue` picks (the next rep still wanted), and
+    /// on through the file while cheap. Returns whether P_I read or decided
+    /// to wait for the next fetch command (the rep's seek would not end
+    /// before it); with no room left without evicting what must stay, the
+    /// rest of the queue is dropped.
+    pub(super) fn serve(&mut self, queue: fn(&mut Self) -> &mut ReadQueue) -> bool {
+        loop {
+            let q = queue(self);
+            let Some(&r) = q.reps.get(q.at) else {
+                return false;
+            };
+            if !self.wanted(r) {
+                queue(self).at += 1;
+                continue;
+            }
+            if !self.first_block_in_time(r) {
+                self.wait_fetch = true;
+                return true;
+            }
+            queue(self).at += 1;
+            if let Err(LoadError::NoRoom) = self.prefetch_read(r) {
+                queue(self).clear();
+            }
+            return true;
+        }
     }
 
     /// Prefetches rep `r`, then reads on to the candidates stored after it
