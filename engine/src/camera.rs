@@ -197,7 +197,16 @@ pub enum PathError {
 /// Parses a path file's text; `name` is used in errors.
 pub fn parse_path(text: &str, name: &str) -> Result<Vec<Pose>, PathError> {
     let mut out = Vec::new();
+    // A byte-order mark, as some editors write, is not part of the text.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     for (i, raw) in text.lines().enumerate() {
+        if out.len() >= MAX_PATH_POSES {
+            return Err(PathError::Syntax {
+                path: name.to_string(),
+                line: i + 1,
+                what: format!("more than {MAX_PATH_POSES} poses"),
+            });
+        }
         let line = raw.split('#').next().unwrap_or("").trim();
         if line.is_empty() {
             continue;
@@ -250,12 +259,25 @@ pub fn parse_path(text: &str, name: &str) -> Result<Vec<Pose>, PathError> {
 /// Reads a path file.
 pub fn read_path(path: &Path) -> Result<Vec<Pose>, PathError> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| PathError::Io {
+    let io = |source| PathError::Io {
         path: name.clone(),
         source,
+    };
+    let bytes = crate::limits::read_bounded(path, MAX_PATH_FILE_BYTES).map_err(io)?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
+        ))
     })?;
     parse_path(&text, &name)
 }
+
+/// The most poses a path file may hold (a million frames: over nine hours
+/// at 30 fps).
+pub const MAX_PATH_POSES: usize = 1_000_000;
+/// The largest path file read: a million poses of eight long numbers.
+pub const MAX_PATH_FILE_BYTES: u64 = 256 << 20;
 
 /// Serialises poses in the path format.
 pub fn format_path(poses: &[Pose]) -> String {

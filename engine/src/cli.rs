@@ -1,11 +1,17 @@
-//! Shared plumbing of the workspace's command-line programs.
+//! Shared plumbing of the workspace's command-line programs: the error
+//! report, and the one validated parameter layer every binary parses its
+//! numbers and sizes through (ranges for every number; sizes capped by what
+//! the machine allows).
 
+use std::fmt::Display;
 use std::process::ExitCode;
+use std::str::FromStr;
 
 /// Sets up logging to stderr (warnings of the builder and the I/O thread),
-/// runs `body`, and turns an error into a message and exit code 2. Output
-/// piped into a reader that stops early (`| head`) ends the program quietly
-/// with exit code 141, as SIGPIPE would, instead of a panic message.
+/// runs `body`, and turns an error into one message ([`report`]) and exit
+/// code 2. Output piped into a reader that stops early (`| head`) ends the
+/// program quietly with exit code 141, as SIGPIPE would, instead of a panic
+/// message.
 pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
     tracing_subscriber::fmt()
         .with_writer(std::io::stderr)
@@ -22,12 +28,27 @@ pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(body)) {
         Ok(Ok(())) => ExitCode::SUCCESS,
         Ok(Err(e)) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", report(&e));
             ExitCode::from(2)
         }
         Err(p) if is_broken_pipe(p.as_ref()) => ExitCode::from(141),
         Err(p) => std::panic::resume_unwind(p),
     }
+}
+
+/// An error and its causes on one line, `outer: inner: …`, each cause
+/// printed once: a cause whose text its outer message already contains
+/// (`"I/O error: No space left"` around `"No space left"`) is left out.
+pub fn report(e: &anyhow::Error) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if parts.iter().any(|p| p.contains(&text)) {
+            continue;
+        }
+        parts.push(text);
+    }
+    parts.join(": ")
 }
 
 /// Whether a panic is `println!` failing on a closed pipe.
@@ -40,44 +61,134 @@ fn is_broken_pipe(payload: &(dyn std::any::Any + Send)) -> bool {
     msg.starts_with("failed printing to stdout") && msg.contains("Broken pipe")
 }
 
-/// Parses a memory footprint: bytes (with B/KB/MB/GB/KiB/MiB/GiB) or a
-/// percentage of `data_bytes` (`2.5%`).
-pub fn parse_budget(s: &str, data_bytes: u64) -> anyhow::Result<u64> {
-    parse_budget_upto(s, data_bytes, 100.0)
-}
-
-/// [`parse_budget`] allowing percentages up to `max_percent` (a footprint
-/// larger than the data, to show a case where everything fits).
-pub fn parse_budget_upto(s: &str, data_bytes: u64, max_percent: f64) -> anyhow::Result<u64> {
-    use anyhow::{Context, bail};
-    let t = s.trim();
-    if let Some(p) = t.strip_suffix('%') {
-        let v: f64 = p
+/// A clap value parser for numbers in `lo..=hi` (NaN and infinities are
+/// outside every range).
+pub fn in_range<T>(lo: T, hi: T) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync
+where
+    T: FromStr + PartialOrd + Display + Copy + Send + Sync + 'static,
+{
+    move |s: &str| {
+        let v: T = s
             .trim()
             .parse()
-            .with_context(|| format!("--budget {s:?}"))?;
-        if !(v > 0.0 && v <= max_percent) {
-            bail!("--budget {s:?}: a percentage must be in (0, {max_percent}]");
+            .map_err(|_| format!("{s:?} is not a number"))?;
+        if lo <= v && v <= hi {
+            Ok(v)
+        } else {
+            Err(format!("{s} is outside {lo}..={hi}"))
         }
-        return Ok((data_bytes as f64 * v / 100.0) as u64);
     }
-    let (num, mult) = [
-        ("GiB", 1u64 << 30),
-        ("MiB", 1 << 20),
-        ("KiB", 1 << 10),
-        ("GB", 1_000_000_000),
-        ("MB", 1_000_000),
-        ("KB", 1000),
-        ("B", 1),
-    ]
-    .iter()
-    .find_map(|(suf, m)| t.strip_suffix(suf).map(|n| (n.trim(), *m)))
-    .unwrap_or((t, 1));
-    let v: f64 = num
-        .parse()
-        .with_context(|| format!("--budget {s:?}: expected e.g. 25MiB or 2.5%"))?;
-    if !(v.is_finite() && v > 0.0) {
-        bail!("--budget {s:?} must be positive");
+}
+
+/// A clap value parser for `0` (off) or a number in `lo..=hi`.
+pub fn zero_or_in<T>(lo: T, hi: T) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync
+where
+    T: FromStr + PartialOrd + Display + Copy + Default + Send + Sync + 'static,
+{
+    let inner = in_range(lo, hi);
+    move |s: &str| match s.trim().parse::<T>() {
+        Ok(v) if v == T::default() => Ok(v),
+        _ => inner(s).map_err(|e| format!("{e} (or 0: off)")),
     }
-    Ok((v * mult as f64) as u64)
+}
+
+/// Parses a memory footprint for `--budget`: see [`parse_size`].
+pub fn parse_budget(s: &str, data_bytes: u64) -> anyhow::Result<u64> {
+    parse_size("--budget", s, data_bytes, 100.0)
+}
+
+/// Parses the size given to `option`: bytes (with B/KB/MB/GB/KiB/MiB/GiB)
+/// or a percentage of `data_bytes` up to `max_percent` (`2.5%`). Sizes are
+/// positive and at most the machine's memory (they are memory footprints);
+/// errors name `option`.
+pub fn parse_size(option: &str, s: &str, data_bytes: u64, max_percent: f64) -> anyhow::Result<u64> {
+    use anyhow::bail;
+    let t = s.trim();
+    let bytes = if let Some(p) = t.strip_suffix('%') {
+        let v: f64 = match p.trim().parse() {
+            Ok(v) => v,
+            Err(_) => bail!("{option} {s:?}: expected e.g. 25MiB or 2.5%"),
+        };
+        if !(v > 0.0 && v <= max_percent) {
+            bail!("{option} {s:?}: a percentage must be in (0, {max_percent}]");
+        }
+        data_bytes as f64 * v / 100.0
+    } else {
+        let (num, mult) = [
+            ("GiB", 1u64 << 30),
+            ("MiB", 1 << 20),
+            ("KiB", 1 << 10),
+            ("GB", 1_000_000_000),
+            ("MB", 1_000_000),
+            ("KB", 1000),
+            ("B", 1),
+        ]
+        .iter()
+        .find_map(|(suf, m)| t.strip_suffix(suf).map(|n| (n.trim(), *m)))
+        .unwrap_or((t, 1));
+        let v: f64 = match num.parse() {
+            Ok(v) => v,
+            Err(_) => bail!("{option} {s:?}: expected e.g. 25MiB or 2.5%"),
+        };
+        if !(v.is_finite() && v > 0.0) {
+            bail!("{option} {s:?} must be positive");
+        }
+        v * mult as f64
+    };
+    let limit = crate::limits::memory_total();
+    if bytes > limit as f64 {
+        bail!(
+            "{option} {s:?} is more than this machine's memory ({})",
+            crate::limits::human(limit)
+        );
+    }
+    Ok(bytes as u64)
+}
+
+/// [`parse_size`], or 0 for `0` / `off`.
+pub fn size_or_off(option: &str, s: &str, data_bytes: u64) -> anyhow::Result<u64> {
+    match s.trim() {
+        "0" | "off" => Ok(0),
+        g => parse_size(option, g, data_bytes, 100.0),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_reject_nonsense() {
+        let fps = zero_or_in(1.0f32, 1000.0);
+        assert_eq!(fps("0").unwrap(), 0.0);
+        assert_eq!(fps("30").unwrap(), 30.0);
+        for bad in ["1e-9", "NaN", "inf", "-5", "1e30", "x"] {
+            assert!(fps(bad).is_err(), "{bad}");
+        }
+        let frames = in_range(1usize, 1_000_000);
+        assert!(frames("1000000000").is_err());
+        assert_eq!(frames("5").unwrap(), 5);
+    }
+
+    #[test]
+    fn sizes_name_their_option_and_stay_within_memory() {
+        assert_eq!(parse_size("--x", "2KiB", 0, 100.0).unwrap(), 2048);
+        assert_eq!(parse_budget("50%", 1000).unwrap(), 500);
+        let e = parse_size("--vdt-pool", "0", 1000, 100.0).unwrap_err();
+        assert!(e.to_string().contains("--vdt-pool"), "{e}");
+        assert!(parse_budget("1e30GiB", 1000).is_err());
+        assert!(parse_budget("101%", 1000).is_err());
+        assert_eq!(size_or_off("--sweep", "off", 1).unwrap(), 0);
+    }
+
+    #[test]
+    fn a_cause_already_in_its_context_is_printed_once() {
+        let io = std::io::Error::from(std::io::ErrorKind::StorageFull);
+        let inner = io.to_string();
+        let e = anyhow::Error::new(io).context(format!("I/O error: {inner}"));
+        let e = e.context("writing out.hlod");
+        let r = report(&e);
+        assert_eq!(r.matches(&inner).count(), 1, "{r}");
+        assert!(r.starts_with("writing out.hlod: I/O error"), "{r}");
+    }
 }

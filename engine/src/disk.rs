@@ -47,8 +47,10 @@ impl DiskModel {
                 })?;
                 let l: f64 = l.parse().map_err(|_| format!("bad latency in {s:?}"))?;
                 let b: f64 = b.parse().map_err(|_| format!("bad bandwidth in {s:?}"))?;
-                if !((0.0..10_000.0).contains(&l) && b.is_finite() && b > 0.0) {
-                    return Err(format!("disk model {s:?} out of range"));
+                if !((0.0..10_000.0).contains(&l) && (1e-3..=1e6).contains(&b)) {
+                    return Err(format!(
+                        "disk model {s:?} out of range: latency in [0, 10000) ms, bandwidth in [0.001, 1000000] MB/s"
+                    ));
                 }
                 Ok(Self {
                     latency: Duration::from_secs_f64(l / 1000.0),
@@ -60,7 +62,7 @@ impl DiskModel {
 
     /// Model time of a read of `len` bytes, with or without a seek.
     pub fn cost(&self, len: usize, seek: bool) -> Duration {
-        let transfer = Duration::from_secs_f64(len as f64 / self.bytes_per_sec);
+        let transfer = crate::limits::duration_s(len as f64 / self.bytes_per_sec);
         if seek {
             self.latency + transfer
         } else {
@@ -141,6 +143,55 @@ impl<S: ByteSource> ByteSource for FaultySource<S> {
     }
 }
 
+/// A source that becomes another after a number of reads (fault
+/// injection): the scene file truncated, overwritten or replaced under a
+/// running walk, or a disk that starts failing, counted in reads rather
+/// than in time so that tests are deterministic.
+#[derive(Debug)]
+pub struct SwitchingSource<A, B> {
+    before: A,
+    after: B,
+    reads_before: u64,
+    reads: std::sync::atomic::AtomicU64,
+}
+
+impl<A: ByteSource, B: ByteSource> SwitchingSource<A, B> {
+    /// Serves `before` for the first `reads_before` reads, then `after`.
+    pub fn new(before: A, after: B, reads_before: u64) -> Self {
+        Self {
+            before,
+            after,
+            reads_before,
+            reads: std::sync::atomic::AtomicU64::new(0),
+        }
+    }
+
+    fn switched(&self) -> bool {
+        self.reads.load(std::sync::atomic::Ordering::Relaxed) >= self.reads_before
+    }
+}
+
+impl<A: ByteSource, B: ByteSource> ByteSource for SwitchingSource<A, B> {
+    fn len(&self) -> u64 {
+        if self.switched() {
+            self.after.len()
+        } else {
+            self.before.len()
+        }
+    }
+
+    fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
+        let n = self
+            .reads
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        if n >= self.reads_before {
+            self.after.read_at(offset, buf)
+        } else {
+            self.before.read_at(offset, buf)
+        }
+    }
+}
+
 /// Asks the OS to drop the file's pages from the page cache (Linux); returns
 /// whether it was done.
 pub fn drop_page_cache(file: &std::fs::File) -> bool {
@@ -161,7 +212,18 @@ pub fn open_scene_source(
     path: &std::path::Path,
     model: Option<DiskModel>,
 ) -> io::Result<std::sync::Arc<dyn ByteSource>> {
-    let f = crate::io::FileSource::open(path)?;
+    scene_source(std::fs::File::open(path)?, model)
+}
+
+/// [`open_scene_source`] over a file already open: a program that runs
+/// several walks opens the scene once and hands each a clone of the handle
+/// (`File::try_clone`), so every walk reads the same file even if the path
+/// is replaced meanwhile (a rebuild renames a new file over it).
+pub fn scene_source(
+    file: std::fs::File,
+    model: Option<DiskModel>,
+) -> io::Result<std::sync::Arc<dyn ByteSource>> {
+    let f = crate::io::FileSource::from_file(file)?;
     drop_page_cache(f.file());
     Ok(match model {
         None => std::sync::Arc::new(f),
@@ -197,8 +259,42 @@ mod tests {
         let c = DiskModel::parse("5:100").unwrap();
         assert_eq!(c.latency, Duration::from_millis(5));
         assert_eq!(c.bytes_per_sec, 100e6);
-        for bad in ["floppy", "5", "x:1", "1:0", "-1:5", "1:NaN"] {
+        for bad in ["floppy", "5", "x:1", "1:0", "-1:5", "1:NaN", "0:1e-30", "1e30:5"] {
             assert!(DiskModel::parse(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn switching_source_changes_after_its_reads() {
+        let src = SwitchingSource::new(MemSource::new(vec![1u8; 8]), MemSource::new(vec![2u8; 4]), 2);
+        let mut b = [0u8; 2];
+        assert_eq!(src.len(), 8);
+        src.read_at(6, &mut b).unwrap();
+        assert_eq!(b, [1, 1]);
+        src.read_at(0, &mut b).unwrap();
+        assert_eq!((src.len(), b), (4, [1, 1]));
+        src.read_at(0, &mut b).unwrap();
+        assert_eq!(b, [2, 2]);
+        assert!(src.read_at(6, &mut b).is_err(), "truncated");
+    }
+
+    #[test]
+    fn a_scene_source_reads_the_file_it_was_opened_on_after_the_path_is_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.hlod");
+        std::fs::write(&path, [1u8; 4096]).unwrap();
+        let file = std::fs::File::open(&path).unwrap();
+        let src = scene_source(file.try_clone().unwrap(), None).unwrap();
+        // A rebuild: a new file renamed over the path.
+        let new = dir.path().join("new.hlod");
+        std::fs::write(&new, [2u8; 100]).unwrap();
+        std::fs::rename(&new, &path).unwrap();
+        let later = scene_source(file.try_clone().unwrap(), Some(DiskModel::NVME)).unwrap();
+        let mut b = [0u8; 16];
+        for s in [src, later] {
+            assert_eq!(s.len(), 4096);
+            s.read_at(4000, &mut b).unwrap();
+            assert_eq!(b, [1u8; 16]);
         }
     }
 

@@ -2,7 +2,7 @@
 //! difference image, for golden-image tests and the benchmark's image quality.
 //! Plain CPU code.
 
-use std::io::{BufReader, BufWriter};
+use std::io::BufReader;
 use std::path::Path;
 
 /// An 8-bit RGBA image, rows top to bottom.
@@ -58,26 +58,20 @@ impl RgbaImage {
         ]
     }
 
-    /// Writes the image as an RGBA PNG (via a temporary file, renamed).
+    /// Writes the image as an RGBA PNG (under the output-file policy:
+    /// atomically, never over a device or a link's name).
     pub fn save_png(&self, path: &Path) -> Result<(), ImageError> {
         let name = path.display().to_string();
-        let io = |source| ImageError::Io {
-            path: name.clone(),
-            source,
-        };
-        let tmp = path.with_extension("png.tmp");
-        let file = std::fs::File::create(&tmp).map_err(io)?;
-        let mut enc = png::Encoder::new(BufWriter::new(file), self.width, self.height);
-        enc.set_color(png::ColorType::Rgba);
-        enc.set_depth(png::BitDepth::Eight);
-        let png_err = |e: png::EncodingError| ImageError::Png {
-            path: name.clone(),
-            reason: e.to_string(),
-        };
-        let mut w = enc.write_header().map_err(png_err)?;
-        w.write_image_data(&self.data).map_err(png_err)?;
-        w.finish().map_err(png_err)?;
-        std::fs::rename(&tmp, path).map_err(io)
+        crate::outfile::write_with(path, &[], |w| {
+            let mut enc = png::Encoder::new(w, self.width, self.height);
+            enc.set_color(png::ColorType::Rgba);
+            enc.set_depth(png::BitDepth::Eight);
+            let mut w = enc.write_header().map_err(std::io::Error::other)?;
+            w.write_image_data(&self.data)
+                .map_err(std::io::Error::other)?;
+            w.finish().map_err(std::io::Error::other)
+        })
+        .map_err(|source| ImageError::Io { path: name, source })
     }
 
     /// Reads an 8-bit RGB or RGBA PNG.

@@ -27,7 +27,11 @@
 //!   and [`runtime`]: P_R ([`runtime::Walkthrough`]) and the P_I loader thread
 //!   under a hard byte budget, in `incore`, `nopre` and `pre` modes.
 //! - [`metrics`] (per-frame CSV, summaries), [`render`] (the renderer trait and
-//!   the `none` renderer) and [`cli`] (shared plumbing of the binaries).
+//!   the `none` renderer) and [`cli`] (shared plumbing of the binaries: error
+//!   report, the validated parameter layer).
+//! - [`limits`] (checked durations, allocations and reads bounded by the
+//!   file and the machine) and [`outfile`] (the output-file policy of every
+//!   writer: regular or new files only, never an input, atomic, cleaned up).
 //! - [`vdt`]: view-dependence trees (El-Sana & Chiang) for large objects —
 //!   the tree, meta-node blocking and file, per-frame refinement, the
 //!   place-holder buffer manager with its I/O thread, and the
@@ -47,7 +51,9 @@ pub mod front;
 pub mod gpu;
 pub mod image;
 pub mod io;
+pub mod limits;
 pub mod metrics;
+pub mod outfile;
 pub mod prefetch;
 pub mod render;
 pub mod runtime;

@@ -186,48 +186,134 @@ pub fn quantile(v: &[f64], q: f64) -> f64 {
     s[rank - 1]
 }
 
-/// Summarises frames against the frame period `period_ms`.
-pub fn summarize(frames: &[FrameMetrics], period_ms: f64) -> Summary {
-    let t: Vec<f64> = frames.iter().map(|f| f.frame_ms).collect();
-    let n = t.len().max(1) as f64;
-    Summary {
-        mode: frames.first().map_or("", |f| f.mode),
-        frames: frames.len(),
-        mean_ms: t.iter().sum::<f64>() / n,
-        median_ms: quantile(&t, 0.5),
-        p99_ms: quantile(&t, 0.99),
-        max_ms: t.iter().copied().fold(0.0, f64::max),
-        over_period: t.iter().filter(|&&x| x > period_ms).count(),
-        stage2_bytes: frames.iter().map(|f| f.stage2_bytes + f.late_bytes).sum(),
-        prefetch_bytes: frames.iter().map(|f| f.prefetch_bytes).sum(),
-        max_resident_bytes: frames
-            .iter()
-            .map(|f| f.max_resident_bytes)
-            .max()
-            .unwrap_or(0),
-        budget_bytes: frames.first().map_or(0, |f| f.budget_bytes),
-        substituted: frames.iter().map(|f| u64::from(f.substituted)).sum(),
-        late_reps: frames.iter().map(|f| u64::from(f.late_reps)).sum(),
-        mean_front_ms: frames.iter().map(|f| f.front_ms).sum::<f64>() / n,
-        ..vdt_summary(frames)
+/// What a run keeps of a frame once its CSV row is written: what the
+/// summary's quantiles, the plots and the image-quality table need (40
+/// bytes instead of the whole [`FrameMetrics`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TracePoint {
+    pub frame_ms: f64,
+    pub front_bytes: u64,
+    pub stage2_bytes: u64,
+    pub max_resident_bytes: u64,
+    pub substituted: u32,
+}
+
+/// A run's summary, accumulated one frame at a time (the frames themselves
+/// go to a [`CsvStream`], not to memory).
+#[derive(Clone, Debug, Default)]
+pub struct Recorder {
+    acc: Summary,
+    trace: Vec<TracePoint>,
+    sum_ms: f64,
+    sum_front_ms: f64,
+    adapt: u64,
+    vdt_misses: u64,
+    sum_vdt_tris: f64,
+    sum_vdt_ms: f64,
+}
+
+impl Recorder {
+    /// Adds one frame.
+    pub fn push(&mut self, f: &FrameMetrics) {
+        let a = &mut self.acc;
+        if a.frames == 0 {
+            a.mode = f.mode;
+            a.budget_bytes = f.budget_bytes;
+        }
+        a.frames += 1;
+        a.max_ms = a.max_ms.max(f.frame_ms);
+        a.stage2_bytes += f.stage2_bytes + f.late_bytes;
+        a.prefetch_bytes += f.prefetch_bytes;
+        a.max_resident_bytes = a.max_resident_bytes.max(f.max_resident_bytes);
+        a.substituted += u64::from(f.substituted);
+        a.late_reps += u64::from(f.late_reps);
+        a.metas_loaded += u64::from(f.metas_loaded);
+        a.max_vdt_bytes = a.max_vdt_bytes.max(f.vdt_bytes);
+        self.sum_ms += f.frame_ms;
+        self.sum_front_ms += f.front_ms;
+        if f.vdt_trees > 0 {
+            a.vdt_frames += 1;
+            self.adapt += u64::from(f.adapt);
+            self.vdt_misses += u64::from(f.vdt_misses);
+            self.sum_vdt_tris += f.vdt_tris as f64;
+            self.sum_vdt_ms += f.vdt_ms;
+        }
+        self.trace.push(TracePoint {
+            frame_ms: f.frame_ms,
+            front_bytes: f.front_bytes,
+            stage2_bytes: f.stage2_bytes,
+            max_resident_bytes: f.max_resident_bytes,
+            substituted: f.substituted,
+        });
+    }
+
+    /// What was kept of each frame, in order.
+    pub fn trace(&self) -> &[TracePoint] {
+        &self.trace
+    }
+
+    /// The summary against the frame period `period_ms`.
+    pub fn summary(&self, period_ms: f64) -> Summary {
+        let t: Vec<f64> = self.trace.iter().map(|p| p.frame_ms).collect();
+        let n = t.len().max(1) as f64;
+        let k = self.acc.vdt_frames.max(1) as f64;
+        Summary {
+            mean_ms: self.sum_ms / n,
+            median_ms: quantile(&t, 0.5),
+            p99_ms: quantile(&t, 0.99),
+            over_period: t.iter().filter(|&&x| x > period_ms).count(),
+            mean_front_ms: self.sum_front_ms / n,
+            mean_adapt: self.adapt as f64 / k,
+            // `+ 0.0`: an empty sum is -0.0.
+            mean_vdt_tris: self.sum_vdt_tris / k + 0.0,
+            vdt_miss_pct: 100.0 * self.vdt_misses as f64
+                / (self.adapt + self.vdt_misses).max(1) as f64,
+            mean_vdt_ms: self.sum_vdt_ms / k + 0.0,
+            ..self.acc.clone()
+        }
     }
 }
 
-fn vdt_summary(frames: &[FrameMetrics]) -> Summary {
-    let with: Vec<&FrameMetrics> = frames.iter().filter(|f| f.vdt_trees > 0).collect();
-    let k = with.len().max(1) as f64;
-    let adapt: u64 = with.iter().map(|f| u64::from(f.adapt)).sum();
-    let misses: u64 = with.iter().map(|f| u64::from(f.vdt_misses)).sum();
-    Summary {
-        vdt_frames: with.len(),
-        mean_adapt: adapt as f64 / k,
-        // `+ 0.0`: an empty sum is -0.0.
-        mean_vdt_tris: with.iter().map(|f| f.vdt_tris as f64).sum::<f64>() / k + 0.0,
-        vdt_miss_pct: 100.0 * misses as f64 / (adapt + misses).max(1) as f64,
-        mean_vdt_ms: with.iter().map(|f| f.vdt_ms).sum::<f64>() / k + 0.0,
-        metas_loaded: frames.iter().map(|f| u64::from(f.metas_loaded)).sum(),
-        max_vdt_bytes: frames.iter().map(|f| f.vdt_bytes).max().unwrap_or(0),
-        ..Summary::default()
+/// Summarises frames against the frame period `period_ms`.
+pub fn summarize(frames: &[FrameMetrics], period_ms: f64) -> Summary {
+    let mut r = Recorder::default();
+    for f in frames {
+        r.push(f);
+    }
+    r.summary(period_ms)
+}
+
+/// A run's per-frame CSV written as the frames come (header first), under
+/// the output-file policy: the file appears complete at [`finish`](Self::finish).
+#[derive(Debug)]
+pub struct CsvStream {
+    out: crate::outfile::OutputFile,
+    w: std::io::BufWriter<std::fs::File>,
+}
+
+impl CsvStream {
+    /// Starts the CSV at `path`.
+    pub fn create(path: &std::path::Path) -> std::io::Result<Self> {
+        use std::io::Write;
+        let out = crate::outfile::OutputFile::create(path, &[])?;
+        let mut w = std::io::BufWriter::with_capacity(1 << 16, out.file().try_clone()?);
+        writeln!(w, "{CSV_HEADER}")?;
+        Ok(Self { out, w })
+    }
+
+    /// Writes one frame's row.
+    pub fn push(&mut self, f: &FrameMetrics) -> std::io::Result<()> {
+        use std::io::Write;
+        writeln!(self.w, "{}", f.csv_row())
+    }
+
+    /// Flushes and puts the file in place.
+    pub fn finish(mut self) -> std::io::Result<()> {
+        use std::io::Write;
+        self.w.flush()?;
+        drop(self.w);
+        self.out.commit()?;
+        Ok(())
     }
 }
 
@@ -309,5 +395,35 @@ mod tests {
             33.3,
         );
         assert_eq!(s.over_period, 1);
+    }
+
+    #[test]
+    fn the_recorder_summarises_as_the_frames_do_and_the_csv_streams() {
+        let frames: Vec<FrameMetrics> = (0..50)
+            .map(|i| FrameMetrics {
+                frame: i,
+                mode: "pre",
+                frame_ms: f64::from(i % 7) * 10.0,
+                stage2_bytes: u64::from(i) * 100,
+                vdt_trees: i % 2,
+                adapt: i,
+                vdt_misses: i % 3,
+                ..Default::default()
+            })
+            .collect();
+        let s = summarize(&frames, 33.3);
+        assert_eq!(s.frames, 50);
+        assert_eq!(s.stage2_bytes, (0..50).map(|i| i * 100).sum::<u64>());
+        assert_eq!(s.vdt_frames, 25);
+        assert_eq!(s.max_ms, 60.0);
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("pre.csv");
+        let mut c = CsvStream::create(&p).unwrap();
+        for f in &frames {
+            c.push(f).unwrap();
+        }
+        assert!(!p.exists(), "appears only when finished");
+        c.finish().unwrap();
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), to_csv(&frames));
     }
 }

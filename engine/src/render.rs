@@ -67,7 +67,7 @@ impl Renderer for NoneRenderer {
     fn draw(&mut self, _rep: RepId, record: &RepRecord, _payload: &Arc<[u8]>, _sub: bool) {
         self.frame_tris += u64::from(record.tri_count);
         if self.tris_per_sec > 0.0 {
-            self.debt += Duration::from_secs_f64(f64::from(record.tri_count) / self.tris_per_sec);
+            self.debt += crate::limits::duration_s(f64::from(record.tri_count) / self.tris_per_sec);
             self.pay(Duration::from_micros(500));
         }
     }

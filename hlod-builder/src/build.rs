@@ -120,6 +120,8 @@ pub enum BuildError {
         path: PathBuf,
         source: std::io::Error,
     },
+    #[error(transparent)]
+    Output(#[from] engine::outfile::OutputError),
 }
 
 /// Table-1 figures of a finished build.
@@ -178,31 +180,24 @@ pub fn build_file(
 ) -> Result<BuildStats, BuildError> {
     params.check()?;
     let t0 = Instant::now();
+    // The output policy first: a device, a directory or the input itself
+    // is refused before any work.
+    let out = engine::outfile::OutputFile::create(output, &[input])?;
     let imported = import::load(input)?;
-    let dir = match output.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
     let io_err = |source| BuildError::Io {
         path: output.to_path_buf(),
         source,
     };
-    let tmp = tempfile::Builder::new()
-        .prefix(".hlod-build-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(io_err)?;
-    let sink = BufWriter::with_capacity(1 << 20, tmp.reopen().map_err(io_err)?);
+    let dir = engine::outfile::parent_dir(out.target()).to_path_buf();
+    let sink = BufWriter::with_capacity(1 << 20, out.file().try_clone().map_err(io_err)?);
     let mut stats =
-        build_scene_staged(&imported, sink, params, progress, Some(dir)).map_err(|source| {
+        build_scene_staged(&imported, sink, params, progress, Some(&dir)).map_err(|source| {
             BuildError::Write {
                 path: output.to_path_buf(),
                 source,
             }
         })?;
-    crate::scenegen::glb::set_public_mode(tmp.as_file()).map_err(io_err)?;
-    tmp.as_file().sync_all().map_err(io_err)?;
-    tmp.persist(output).map_err(|e| io_err(e.error))?;
+    out.commit()?;
     stats.file_bytes = std::fs::metadata(output).map_err(io_err)?.len();
     stats.seconds = t0.elapsed().as_secs_f64();
     Ok(stats)
@@ -242,6 +237,16 @@ fn build_scene_staged<W: Write + std::io::Seek>(
         progress,
     )?;
     let staged = engine::format::SceneFile::from_source(engine::io::FileSource::from_file(file)?)?;
+    // The copy in layout order needs as much room again as the staged file.
+    if let Some(dir) = staging {
+        let need = engine::ByteSource::len(staged.source());
+        engine::outfile::ensure_free(dir, need).map_err(|e| {
+            FormatError::Io(std::io::Error::new(
+                std::io::ErrorKind::StorageFull,
+                format!("{e}: the spatial layout writes the scene twice (use --layout build to need half)"),
+            ))
+        })?;
+    }
     crate::layout::relayout(&staged, sink)?;
     Ok(stats)
 }

@@ -74,12 +74,20 @@ impl Imported {
 
 const MAX_NODE_DEPTH: usize = 256;
 
+/// The largest glTF/GLB file (or external buffer) read: half the machine's
+/// memory (the build needs several times its input besides).
+pub fn max_input_bytes() -> u64 {
+    engine::limits::memory_total() / 2
+}
+
 /// Loads `path`.
 pub fn load(path: &Path) -> Result<Imported, ImportError> {
     let gltf = {
-        let bytes = std::fs::read(path).map_err(|source| ImportError::Read {
-            path: path.to_path_buf(),
-            source,
+        let bytes = engine::limits::read_bounded(path, max_input_bytes()).map_err(|source| {
+            ImportError::Read {
+                path: path.to_path_buf(),
+                source,
+            }
         })?;
         parse(&bytes, path)?
     };
@@ -222,7 +230,7 @@ fn load_buffers(
                         .map_err(|e| invalid(format!("buffer {}: bad base64: {e}", buf.index())))?
                 } else {
                     let file = base_dir.join(percent_decode(uri));
-                    std::fs::read(&file).map_err(|e| {
+                    read_buffer_file(&file, buf.length() as u64).map_err(|e| {
                         invalid(format!(
                             "buffer {}: cannot read {}: {e}",
                             buf.index(),
@@ -242,6 +250,32 @@ fn load_buffers(
         }
         out.push(data);
     }
+    Ok(out)
+}
+
+/// The first `len` bytes of an external buffer file (what the buffer
+/// declares; a longer file is fine, a shorter one an error), never more:
+/// a buffer naming `/dev/zero` reads `len` bytes.
+fn read_buffer_file(file: &Path, len: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    if len > max_input_bytes() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::FileTooLarge,
+            format!(
+                "declares {}, more than the {} this importer reads",
+                engine::limits::human(len),
+                engine::limits::human(max_input_bytes())
+            ),
+        ));
+    }
+    let f = std::fs::File::open(file)?;
+    if f.metadata()?.is_dir() {
+        return Err(std::io::ErrorKind::IsADirectory.into());
+    }
+    let mut out = Vec::new();
+    out.try_reserve_exact(len as usize)
+        .map_err(|_| std::io::Error::from(std::io::ErrorKind::OutOfMemory))?;
+    f.take(len).read_to_end(&mut out)?;
     Ok(out)
 }
 

@@ -332,10 +332,10 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
     Ok(())
 }
 
-/// Writes `bytes` to `out` through a temporary file in the same folder.
-fn write_vdt(out: &std::path::Path, bytes: &[u8]) -> Result<()> {
+/// Writes `bytes` to `out` under the output-file policy (never over `input`).
+fn write_vdt(out: &std::path::Path, input: &std::path::Path, bytes: &[u8]) -> Result<()> {
     use std::io::Write;
-    hlod_builder::scenegen::glb::write_atomically(out, |w| w.write_all(bytes))
+    hlod_builder::scenegen::glb::write_atomically(out, &[input], |w| w.write_all(bytes))
         .with_context(|| format!("cannot write {}", out.display()))
 }
 
@@ -416,7 +416,11 @@ fn vdt_report(
             human_bytes((files.mnt.len() * std::mem::size_of::<meta::MntRecord>()) as u64)
         );
         if let (Some(out), true) = (output, Some(i) == largest) {
-            write_vdt(out, &engine::vdt::file::encode_blocked(&tree, &m, &files))?;
+            write_vdt(
+                out,
+                input,
+                &engine::vdt::file::encode_blocked(&tree, &m, &files),
+            )?;
             println!("wrote {} (mesh {i})", out.display());
         }
     }

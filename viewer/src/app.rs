@@ -9,7 +9,7 @@ use anyhow::{Context, Result, anyhow};
 use engine::camera::{Pose, format_path, read_path};
 use engine::disk::DiskModel;
 use engine::gpu::Colouring;
-use engine::metrics::{FrameMetrics, to_csv};
+use engine::metrics::CsvStream;
 use engine::runtime::{Mode, RuntimeParams};
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
@@ -82,12 +82,18 @@ struct App {
     history: VecDeque<Sample>,
     play: Option<(Vec<Pose>, usize)>,
     recording: Option<Vec<Pose>>,
-    run_metrics: Vec<FrameMetrics>,
-    run_loop_ms: Vec<f64>,
+    /// The run's per-frame CSV (`--csv`), written as the frames come, and
+    /// the loop times beside it.
+    run_csv: Option<CsvStream>,
+    loop_csv: Option<std::io::BufWriter<std::fs::File>>,
+    loop_out: Option<engine::outfile::OutputFile>,
     frames: u64,
     last: Instant,
     screenshot_to: Option<PathBuf>,
     fatal: Option<anyhow::Error>,
+    /// The last scene that failed to open, while no other has opened since:
+    /// the exit status says so (a script cannot read the overlay).
+    open_failed: Option<String>,
     /// When the overlay is next repainted (it is cached between).
     ui_due: Instant,
     ui_dirty: bool,
@@ -123,12 +129,14 @@ impl App {
             history: VecDeque::new(),
             play: path.map(|p| (p, 0)),
             recording,
-            run_metrics: Vec::new(),
-            run_loop_ms: Vec::new(),
+            run_csv: None,
+            loop_csv: None,
+            loop_out: None,
             frames: 0,
             last: Instant::now(),
             screenshot_to: None,
             fatal: None,
+            open_failed: None,
             ui_due: Instant::now(),
             ui_dirty: true,
         }
@@ -163,8 +171,13 @@ impl App {
                 self.settings = sess.settings;
                 self.session = Some(sess);
                 self.error = None;
+                self.open_failed = None;
             }
-            Err(e) => self.report(format!("cannot open {}: {e}", path.display())),
+            Err(e) => {
+                let msg = format!("cannot open {}: {e}", path.display());
+                self.open_failed = Some(msg.clone());
+                self.report(msg);
+            }
         }
     }
 
@@ -212,7 +225,7 @@ impl App {
             .record
             .clone()
             .unwrap_or_else(|| PathBuf::from("hlod-view-path.txt"));
-        match std::fs::write(&to, format_path(poses)) {
+        match engine::outfile::write_bytes(&to, format_path(poses).as_bytes()) {
             Ok(()) => tracing::info!("recorded {} poses to {}", poses.len(), to.display()),
             Err(e) => self.report(format!("cannot write {}: {e}", to.display())),
         }
@@ -275,7 +288,7 @@ impl App {
             None => gfx.clear(&target),
         }
         let mut actions = ui::Actions::default();
-        let exiting = self.args.exit_after.is_some_and(|n| self.frames + 1 >= n);
+        let mut exiting = self.args.exit_after.is_some_and(|n| self.frames + 1 >= n);
         let refresh =
             self.ui_dirty || now >= self.ui_due || exiting || self.screenshot_to.is_some();
         if !self.args.no_overlay && refresh {
@@ -285,7 +298,7 @@ impl App {
             } else {
                 2.0
             };
-            self.ui_due = now + std::time::Duration::from_secs_f64(1.0 / hz.min(1000.0));
+            self.ui_due = now + engine::limits::duration_s(1.0 / hz.min(1000.0));
             let raw = gfx.egui_state.take_egui_input(&gfx.window);
             let view = ui::View {
                 scene: self.session.as_ref().and_then(|s| s.path.to_str()),
@@ -336,9 +349,9 @@ impl App {
         }
         let loop_ms = now.elapsed().as_secs_f64() * 1e3;
         if let Some(m) = metrics {
-            if self.args.csv.is_some() {
-                self.run_metrics.push(m.clone());
-                self.run_loop_ms.push(loop_ms);
+            if let Err(e) = self.log_frame(&m, loop_ms) {
+                self.fatal = Some(e);
+                exiting = true;
             }
             self.history.push_back(Sample { loop_ms, m });
             if self.history.len() > HISTORY {
@@ -350,6 +363,32 @@ impl App {
         if exiting {
             event_loop.exit();
         }
+    }
+
+    /// Streams one frame to `--csv` and its `-loop.csv` (opened at the
+    /// first frame).
+    fn log_frame(&mut self, m: &engine::metrics::FrameMetrics, loop_ms: f64) -> Result<()> {
+        use std::io::Write;
+        let Some(csv) = &self.args.csv else {
+            return Ok(());
+        };
+        if self.run_csv.is_none() {
+            self.run_csv = Some(CsvStream::create(csv).with_context(|| csv.display().to_string())?);
+            let stem = csv.with_extension("");
+            let loop_path = PathBuf::from(format!("{}-loop.csv", stem.display()));
+            let out = engine::outfile::OutputFile::create(&loop_path, &[])?;
+            let mut w = std::io::BufWriter::new(out.file().try_clone()?);
+            writeln!(w, "frame,loop_ms")?;
+            self.loop_csv = Some(w);
+            self.loop_out = Some(out);
+        }
+        if let Some(c) = &mut self.run_csv {
+            c.push(m)?;
+        }
+        if let Some(w) = &mut self.loop_csv {
+            writeln!(w, "{},{loop_ms:.3}", m.frame)?;
+        }
+        Ok(())
     }
 
     fn apply(&mut self, a: ui::Actions) {
@@ -384,21 +423,20 @@ impl App {
         if let Some(poses) = self.recording.take() {
             self.save_recording(&poses);
         }
-        if let Some(csv) = &self.args.csv {
-            std::fs::write(csv, to_csv(&self.run_metrics))
-                .with_context(|| csv.display().to_string())?;
-            let mut loops = String::from("frame,loop_ms\n");
-            for (i, t) in self.run_loop_ms.iter().enumerate() {
-                loops.push_str(&format!("{i},{t:.3}\n"));
-            }
-            let stem = csv.with_extension("");
-            std::fs::write(format!("{}-loop.csv", stem.display()), loops)?;
+        if let Some(csv) = self.run_csv.take() {
+            csv.finish().context("--csv")?;
+        }
+        if let (Some(mut w), Some(out)) = (self.loop_csv.take(), self.loop_out.take()) {
+            std::io::Write::flush(&mut w).context("--csv")?;
+            drop(w);
+            out.commit().context("--csv")?;
         }
         // Drop the walkthrough (joins P_I) before the window goes.
         self.session = None;
-        match self.fatal.take() {
-            Some(e) => Err(e),
-            None => Ok(()),
+        match (self.fatal.take(), self.open_failed.take()) {
+            (Some(e), _) => Err(e),
+            (None, Some(msg)) => Err(anyhow!(msg)),
+            (None, None) => Ok(()),
         }
     }
 }

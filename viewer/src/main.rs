@@ -20,6 +20,7 @@ mod session;
 mod ui;
 
 use std::path::PathBuf;
+use engine::cli::in_range;
 use std::process::ExitCode;
 
 use clap::Parser;
@@ -41,12 +42,12 @@ pub struct Args {
     #[arg(long, default_value = "8%")]
     pub budget: String,
     /// Error tolerance ε in pixels.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = in_range(0.01f32, 10_000.0))]
     pub tolerance: f32,
     /// Stall deadline in ms (0: wait for every missing rep, the paper's
     /// protocol): what Stage II cannot read in time is drawn as its nearest
     /// resident ancestor and read after the frame.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 60_000.0))]
     pub stall_deadline: f32,
     /// file, hdd, ssd, nvme or LATENCY_MS:MB_PER_S.
     #[arg(long, default_value = "file")]
@@ -69,9 +70,9 @@ pub struct Args {
     /// Save the last frame (with the overlay) as PNG at exit.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
-    #[arg(long, default_value_t = 1280)]
+    #[arg(long, default_value_t = 1280, value_parser = in_range(16u32, 8192))]
     pub width: u32,
-    #[arg(long, default_value_t = 720)]
+    #[arg(long, default_value_t = 720, value_parser = in_range(16u32, 8192))]
     pub height: u32,
     /// Wait for vertical sync (default: present as fast as possible).
     #[arg(long)]
@@ -80,7 +81,7 @@ pub struct Args {
     #[arg(long)]
     pub no_overlay: bool,
     /// Overlay refreshes per second (it is cached in between; input refreshes it at once).
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = in_range(0.1f64, 1000.0))]
     pub overlay_hz: f64,
 }
 

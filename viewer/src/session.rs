@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use engine::disk::{DiskModel, open_scene_source};
+use engine::disk::{DiskModel, scene_source};
 use engine::gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::{SceneFile, Skeleton};
@@ -26,6 +26,9 @@ pub struct Settings {
 /// An open scene with its walkthrough.
 pub struct Session {
     pub path: PathBuf,
+    /// The scene file, held open: a walk restarted with new settings reads
+    /// the same file even if its path was replaced meanwhile.
+    file: std::fs::File,
     pub skeleton: Arc<Skeleton>,
     pub data_bytes: u64,
     walk: Option<Walkthrough>,
@@ -54,7 +57,13 @@ impl Session {
         size: (u32, u32),
         color_format: wgpu::TextureFormat,
     ) -> Result<Self, String> {
-        let scene = SceneFile::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let named = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+        let file = std::fs::File::open(path).map_err(|e| named(&e))?;
+        let scene = file
+            .try_clone()
+            .and_then(engine::FileSource::from_file)
+            .map_err(|e| named(&e))
+            .and_then(|src| SceneFile::from_source(src).map_err(|e| named(&e)))?;
         let skeleton = Arc::new(scene.skeleton().clone());
         let data_bytes: u64 = skeleton.reps.iter().map(|r| u64::from(r.len)).sum();
         if let Some(b) = budget {
@@ -68,6 +77,7 @@ impl Session {
         (settings.params.width_px, settings.params.height_px) = size;
         let (walk, renderer) = start(
             path,
+            &file,
             &skeleton,
             data_bytes,
             ctx,
@@ -77,6 +87,7 @@ impl Session {
         )?;
         Ok(Self {
             path: path.to_path_buf(),
+            file,
             skeleton,
             data_bytes,
             walk: Some(walk),
@@ -130,6 +141,7 @@ impl Session {
             self.renderer.clear();
             let (walk, renderer) = start(
                 &self.path,
+                &self.file,
                 &self.skeleton,
                 self.data_bytes,
                 ctx,
@@ -163,12 +175,16 @@ fn budget(data: u64, fraction: f64) -> u64 {
 
 fn start_walk(
     path: &Path,
+    file: &std::fs::File,
     skel: &Arc<Skeleton>,
     data_bytes: u64,
     s: &Settings,
 ) -> Result<Walkthrough, String> {
     let model = if s.mode == Mode::Incore { None } else { s.disk };
-    let source = open_scene_source(path, model).map_err(|e| format!("{}: {e}", path.display()))?;
+    let source = file
+        .try_clone()
+        .and_then(|f| scene_source(f, model))
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     let params = RuntimeParams {
         mode: s.mode,
         budget_bytes: budget(data_bytes, s.budget_fraction),
@@ -179,6 +195,7 @@ fn start_walk(
 
 fn start(
     path: &Path,
+    file: &std::fs::File,
     skel: &Arc<Skeleton>,
     data_bytes: u64,
     ctx: &GpuContext,
@@ -186,7 +203,7 @@ fn start(
     size: (u32, u32),
     color_format: wgpu::TextureFormat,
 ) -> Result<(Walkthrough, GpuRenderer), String> {
-    let walk = start_walk(path, skel, data_bytes, s)?;
+    let walk = start_walk(path, file, skel, data_bytes, s)?;
     let capacity = if s.mode == Mode::Incore {
         data_bytes
     } else {

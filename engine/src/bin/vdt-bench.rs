@@ -10,6 +10,7 @@
 //! `frames.csv`, `table2.md` and, with `--psnr-every`, PSNR of the refined
 //! mesh against the full-resolution one (CPU rasteriser).
 
+use engine::cli::{in_range, zero_or_in};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -39,26 +40,26 @@ struct Args {
     /// Camera path file (default: a generated approach and orbit).
     #[arg(long)]
     path: Option<PathBuf>,
-    #[arg(long, default_value_t = 600)]
+    #[arg(long, default_value_t = 600, value_parser = in_range(1usize, 1_000_000))]
     frames: usize,
     /// Footprints: bytes (KiB/MiB suffixes) or percentages of the whole
     /// meta-node tree (in-core part plus DATA), comma-separated.
     #[arg(long, default_value = "60%,80%,120%")]
     budgets: String,
     /// Error tolerance in pixels.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = in_range(0.01f32, 10_000.0))]
     tolerance: f32,
     /// hdd, ssd, nvme or LATENCY_MS:MB_PER_S.
     #[arg(long, default_value = "hdd")]
     disk: String,
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, default_value_t = 30.0, value_parser = zero_or_in(1.0f32, 1000.0))]
     fps: f32,
-    #[arg(long, default_value_t = 1280)]
+    #[arg(long, default_value_t = 1280, value_parser = in_range(16u32, 8192))]
     width: u32,
-    #[arg(long, default_value_t = 720)]
+    #[arg(long, default_value_t = 720, value_parser = in_range(16u32, 8192))]
     height: u32,
     /// Compare every N-th Ext. frame with the full-resolution mesh (0: off).
-    #[arg(long, default_value_t = 60)]
+    #[arg(long, default_value_t = 60, value_parser = in_range(0usize, 1_000_000))]
     psnr_every: usize,
     /// Child meta-nodes kept prefetched: cut (those right below active
     /// nodes) or paper (all children of active meta-nodes).
@@ -105,7 +106,7 @@ fn run(a: Args) -> Result<()> {
         None => generate_path(PathKind::ApproachOrbit, lo, hi, a.frames),
     };
     std::fs::create_dir_all(&a.out)?;
-    std::fs::write(a.out.join("path.txt"), format_path(&poses))?;
+    engine::outfile::write_bytes(&a.out.join("path.txt"), format_path(&poses).as_bytes())?;
     let diag = (hi - lo).length().max(1e-6);
     let views: Vec<View> = poses
         .iter()
@@ -120,7 +121,7 @@ fn run(a: Args) -> Result<()> {
     let budgets = a
         .budgets
         .split(',')
-        .map(|b| engine::cli::parse_budget_upto(b, whole_ext, 10_000.0))
+        .map(|b| engine::cli::parse_size("--budgets", b, whole_ext, 10_000.0))
         .collect::<Result<Vec<u64>>>()?;
     println!(
         "{}: {} leaves, {} nodes, {} meta-nodes (L = {}, largest {} B), DATA {:.2} MiB, tree {:.2} MiB; {} frames, ε {} px, disk {}",
@@ -137,7 +138,7 @@ fn run(a: Args) -> Result<()> {
         a.disk
     );
     let period = if a.fps > 0.0 {
-        Duration::from_secs_f32(1.0 / a.fps)
+        engine::limits::duration_s(1.0 / f64::from(a.fps))
     } else {
         Duration::ZERO
     };
@@ -221,11 +222,11 @@ fn run(a: Args) -> Result<()> {
         mean(&reference, |f| f.ms)
     );
     print!("{head}{table}");
-    std::fs::write(a.out.join("table2.md"), format!("{head}{table}"))?;
-    std::fs::write(a.out.join("frames.csv"), csv)?;
+    engine::outfile::write_bytes(&a.out.join("table2.md"), format!("{head}{table}").as_bytes())?;
+    engine::outfile::write_bytes(&a.out.join("frames.csv"), csv.as_bytes())?;
     if a.psnr_every > 0 {
         print!("PSNR (dB) of Ext. frames vs the full-resolution mesh:\n{psnr}");
-        std::fs::write(a.out.join("psnr.csv"), psnr)?;
+        engine::outfile::write_bytes(&a.out.join("psnr.csv"), psnr.as_bytes())?;
     }
     Ok(())
 }

@@ -38,9 +38,21 @@ impl<S: ByteSource> SceneFile<S> {
     /// Reads and validates the header and the skeleton from `source`.
     pub fn from_source(source: S) -> Result<Self, FormatError> {
         let header = read_header(&source)?;
-        let mut bytes = vec![0u8; header.skeleton_len as usize];
-        source.read_at(header.skeleton_offset, &mut bytes)?;
-        let computed = crc32fast::hash(&bytes);
+        // The records need this much memory once checked: refuse a count
+        // the machine cannot hold before reading anything.
+        let limit = crate::limits::memory_total();
+        if header.skeleton_len > limit {
+            return Err(FormatError::TooLarge(format!(
+                "the skeleton of {} nodes and {} reps needs {}, more than this machine's memory ({})",
+                header.node_count,
+                header.rep_count,
+                crate::limits::human(header.skeleton_len),
+                crate::limits::human(limit)
+            )));
+        }
+        // The checksum first, read in chunks: a header that lies about
+        // its counts costs no memory.
+        let computed = chunked_crc(&source, header.skeleton_offset, header.skeleton_len)?;
         if computed != header.skeleton_crc {
             return Err(FormatError::Checksum {
                 what: "skeleton".into(),
@@ -48,15 +60,13 @@ impl<S: ByteSource> SceneFile<S> {
                 computed,
             });
         }
-        let node_bytes = header.node_count as usize * size_of::<NodeRecord>();
-        let nodes = bytes[..node_bytes]
-            .chunks_exact(size_of::<NodeRecord>())
-            .map(bytemuck::pod_read_unaligned)
-            .collect();
-        let reps = bytes[node_bytes..]
-            .chunks_exact(size_of::<RepRecord>())
-            .map(bytemuck::pod_read_unaligned)
-            .collect();
+        let node_bytes = u64::from(header.node_count) * size_of::<NodeRecord>() as u64;
+        let nodes: Vec<NodeRecord> = read_records(&source, header.skeleton_offset, node_bytes)?;
+        let reps: Vec<RepRecord> = read_records(
+            &source,
+            header.skeleton_offset + node_bytes,
+            header.skeleton_len - node_bytes,
+        )?;
         let skeleton = Skeleton { nodes, reps };
         skeleton.validate(header.data_offset, header.data_offset + header.data_len)?;
         Ok(Self {
@@ -118,7 +128,8 @@ impl<S: ByteSource> SceneFile<S> {
         if !rec.is_vdt() {
             return Err(bad("not a view-dependence tree".into()));
         }
-        let mut buf = vec![0u8; rec.extent() as usize];
+        let mut buf = crate::limits::alloc_bytes(rec.extent(), "a view-dependence tree")
+            .map_err(|e| bad(e.to_string()))?;
         self.source.read_at(rec.offset, &mut buf)?;
         check_rep_crc(rep, &rec, &buf[..rec.len as usize])?;
         let file = VdtFile::open(Arc::new(MemSource::new(buf))).map_err(|e| bad(e.to_string()))?;
@@ -184,6 +195,55 @@ pub fn check_rep_crc(rep: RepId, rec: &RepRecord, bytes: &[u8]) -> Result<(), Fo
         });
     }
     Ok(())
+}
+
+/// Bytes read at once while checking or decoding the skeleton.
+const CHUNK: u64 = 1 << 20;
+
+/// CRC-32 of `len` bytes at `offset`, read a chunk at a time.
+fn chunked_crc(source: &impl ByteSource, offset: u64, len: u64) -> Result<u32, FormatError> {
+    let mut h = crc32fast::Hasher::new();
+    let mut buf = vec![0u8; CHUNK.min(len) as usize];
+    let mut at = 0;
+    while at < len {
+        let n = (len - at).min(CHUNK) as usize;
+        source.read_at(offset + at, &mut buf[..n])?;
+        h.update(&buf[..n]);
+        at += n as u64;
+    }
+    Ok(h.finalize())
+}
+
+/// The `len / size_of::<T>()` records at `offset`, decoded a chunk at a
+/// time into a fallibly reserved vector.
+fn read_records<T: bytemuck::Pod>(
+    source: &impl ByteSource,
+    offset: u64,
+    len: u64,
+) -> Result<Vec<T>, FormatError> {
+    let size = size_of::<T>() as u64;
+    let count = usize::try_from(len / size).map_err(|_| FormatError::TooLarge("records".into()))?;
+    let mut out = Vec::new();
+    out.try_reserve_exact(count).map_err(|_| {
+        FormatError::TooLarge(format!(
+            "cannot allocate {} for the skeleton",
+            crate::limits::human(len)
+        ))
+    })?;
+    let per_chunk = CHUNK / size * size;
+    let mut buf = vec![0u8; per_chunk.min(len) as usize];
+    let mut at = 0;
+    while at < len {
+        let n = (len - at).min(per_chunk) as usize;
+        source.read_at(offset + at, &mut buf[..n])?;
+        out.extend(
+            buf[..n]
+                .chunks_exact(size as usize)
+                .map(bytemuck::pod_read_unaligned::<T>),
+        );
+        at += n as u64;
+    }
+    Ok(out)
 }
 
 fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {

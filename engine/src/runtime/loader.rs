@@ -18,7 +18,7 @@ mod span;
 mod sweep;
 
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use crossbeam_channel::{Receiver, Sender, TryRecvError};
 
@@ -249,7 +249,7 @@ impl Loader {
                     // 1 % early: frame pacing wakes P_R a little late, not
                     // early (reads are timed per read, with their own margin).
                     self.next_fetch =
-                        (period > 0.0).then(|| now + Duration::from_secs_f64(expect * 0.99));
+                        (period > 0.0).then(|| crate::limits::after(now, expect * 0.99)).flatten();
                     if self.fetch(&front).is_err() {
                         return;
                     }

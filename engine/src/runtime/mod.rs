@@ -21,6 +21,8 @@
 mod loader;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod fault_tests;
 mod trees;
 
 use std::sync::Arc;
@@ -193,8 +195,8 @@ impl RuntimeParams {
     /// Rejects nonsense values.
     pub fn check(&self) -> Result<(), RuntimeError> {
         let bad = |s: &str| Err(RuntimeError::Params(s.to_string()));
-        if !(self.tolerance_px.is_finite() && self.tolerance_px > 0.0) {
-            return bad("tolerance must be a positive number of pixels");
+        if !(self.tolerance_px > 0.0 && self.tolerance_px <= 1e5) {
+            return bad("tolerance must be in (0, 100000] pixels");
         }
         if self.width_px == 0
             || self.height_px == 0
@@ -206,11 +208,11 @@ impl RuntimeParams {
         if !(self.near > 0.0 && self.far > self.near && self.far.is_finite()) {
             return bad("need 0 < near < far");
         }
-        if !(self.frame_period_s.is_finite() && self.frame_period_s >= 0.0) {
-            return bad("frame period must be a non-negative number of seconds");
+        if !(self.frame_period_s >= 0.0 && self.frame_period_s <= 60.0) {
+            return bad("frame period must be in [0, 60] seconds");
         }
-        if !(self.stall_deadline_s.is_finite() && self.stall_deadline_s >= 0.0) {
-            return bad("stall deadline must be a non-negative number of seconds");
+        if !(self.stall_deadline_s >= 0.0 && self.stall_deadline_s <= 60.0) {
+            return bad("stall deadline must be in [0, 60] seconds");
         }
         if self.block_bytes < 512 {
             return bad("block size must be at least 512 bytes");
@@ -614,12 +616,41 @@ pub fn run_path(
     renderer: &mut dyn Renderer,
     fps: f32,
 ) -> Result<Vec<FrameMetrics>, RuntimeError> {
+    let mut out = Vec::with_capacity(poses.len());
+    run_path_each(walk, poses, renderer, fps, |m| {
+        out.push(m);
+        Ok(())
+    })
+    .map_err(|e| match e {
+        PathRunError::Runtime(e) => e,
+        PathRunError::Sink(_) => unreachable!("the collecting sink never fails"),
+    })?;
+    Ok(out)
+}
+
+/// Why [`run_path_each`] stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum PathRunError {
+    #[error(transparent)]
+    Runtime(#[from] RuntimeError),
+    #[error(transparent)]
+    Sink(std::io::Error),
+}
+
+/// [`run_path`], handing each frame's metrics to `each` as it ends instead
+/// of keeping them (a long run's memory does not grow with its frames).
+pub fn run_path_each(
+    walk: &mut Walkthrough,
+    poses: &[Pose],
+    renderer: &mut dyn Renderer,
+    fps: f32,
+    mut each: impl FnMut(FrameMetrics) -> std::io::Result<()>,
+) -> Result<(), PathRunError> {
     let period = if fps > 0.0 {
-        std::time::Duration::from_secs_f32(1.0 / fps)
+        crate::limits::duration_s(1.0 / f64::from(fps))
     } else {
         std::time::Duration::ZERO
     };
-    let mut out = Vec::with_capacity(poses.len());
     let mut next = Instant::now();
     for pose in poses {
         let now = Instant::now();
@@ -627,8 +658,8 @@ pub fn run_path(
             std::thread::sleep(next - now);
         }
         let start = Instant::now();
-        out.push(walk.frame(pose, renderer)?);
+        each(walk.frame(pose, renderer)?).map_err(PathRunError::Sink)?;
         next = start + period;
     }
-    Ok(out)
+    Ok(())
 }

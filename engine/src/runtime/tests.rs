@@ -11,7 +11,7 @@ use crate::io::MemSource;
 use crate::render::NoneRenderer;
 use crate::testutil::build;
 
-fn scene(reps: &[u32], children: &[u32]) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
+pub(super) fn scene(reps: &[u32], children: &[u32]) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
     let (bytes, _) = build(reps, children);
     let file = SceneFile::from_source(MemSource::new(bytes.clone())).unwrap();
     (
@@ -21,7 +21,7 @@ fn scene(reps: &[u32], children: &[u32]) -> (Arc<Skeleton>, Arc<dyn ByteSource>)
 }
 
 /// A root with `n` leaves of three LODs under `n / 4` interior nodes.
-fn wide(n: u32) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
+pub(super) fn wide(n: u32) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
     let groups = n / 4;
     let mut reps = vec![1];
     let mut children = vec![groups];
@@ -32,7 +32,7 @@ fn wide(n: u32) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
     scene(&reps, &children)
 }
 
-fn params(mode: Mode, budget: u64) -> RuntimeParams {
+pub(super) fn params(mode: Mode, budget: u64) -> RuntimeParams {
     RuntimeParams {
         mode,
         budget_bytes: budget,
@@ -46,11 +46,11 @@ fn params(mode: Mode, budget: u64) -> RuntimeParams {
     }
 }
 
-fn pose(x: f32, y: f32, z: f32, yaw: f32) -> Pose {
+pub(super) fn pose(x: f32, y: f32, z: f32, yaw: f32) -> Pose {
     Pose::from_yaw_pitch(Vec3::new(x, y, z), yaw, -0.2, 60.0)
 }
 
-fn check_frames(frames: &[FrameMetrics], budget: u64) {
+pub(super) fn check_frames(frames: &[FrameMetrics], budget: u64) {
     for f in frames {
         assert!(
             f.max_resident_bytes <= budget,
@@ -69,7 +69,7 @@ fn check_frames(frames: &[FrameMetrics], budget: u64) {
 }
 
 /// `src` behind a disk model: `latency` a seek, `bytes_per_sec`.
-fn throttled(
+pub(super) fn throttled(
     src: &Arc<dyn ByteSource>,
     latency: std::time::Duration,
     bytes_per_sec: f64,

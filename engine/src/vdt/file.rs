@@ -103,8 +103,18 @@ impl VdtHeader {
 
 /// Bytes of the flat layout of a tree with `leaves` leaves, `nodes` nodes
 /// (`nodes >= leaves`), `adjacency` adjacency entries and `roots` roots.
+/// Saturating: counts read from a corrupt header give `u64::MAX`, which no
+/// file length equals.
 pub fn flat_len(leaves: u64, nodes: u64, adjacency: u64, roots: u64) -> u64 {
-    nodes * NODE_ENTRY + leaves * 12 + (nodes - leaves + 1) * 4 + adjacency * TRI_ENTRY + roots * 4
+    [
+        nodes.saturating_mul(NODE_ENTRY),
+        leaves.saturating_mul(12),
+        nodes.saturating_sub(leaves).saturating_add(1).saturating_mul(4),
+        adjacency.saturating_mul(TRI_ENTRY),
+        roots.saturating_mul(4),
+    ]
+    .into_iter()
+    .fold(0u64, u64::saturating_add)
 }
 
 /// What can go wrong reading a `.vdt` file or a part of it.
@@ -237,8 +247,8 @@ impl VdtFile {
         }
         let virt_len = flat_len(n, nodes, h.adjacency_count, u64::from(h.tree_roots));
         if h.data_offset != 112 + mnt_len + perm_len
-            || h.virt_offset != h.data_offset + h.data_len
-            || h.virt_offset + virt_len != source.len()
+            || h.data_offset.checked_add(h.data_len) != Some(h.virt_offset)
+            || h.virt_offset.checked_add(virt_len) != Some(source.len())
             || h.root_count > h.meta_count
             || h.root_count > h.tree_roots
             || nodes >= u64::from(u32::MAX)
@@ -258,7 +268,10 @@ impl VdtFile {
             let kids_ok = r.child_count == 0
                 || (u64::from(r.first_child) + u64::from(r.child_count) <= metas
                     && r.first_child as usize > i);
-            if r.offset + u64::from(r.len) > h.data_len || r.len > h.max_meta_bytes || !kids_ok {
+            if r.offset.checked_add(u64::from(r.len)).is_none_or(|e| e > h.data_len)
+                || r.len > h.max_meta_bytes
+                || !kids_ok
+            {
                 return Err(corrupt(&format!("MNT record {i} out of range")));
             }
         }

@@ -171,42 +171,23 @@ pub fn to_glb(meshes: &[Mesh], objects: &[GlbObject]) -> std::io::Result<Vec<u8>
 }
 
 /// Writes a GLB atomically (temporary file in the same directory, then rename).
-pub fn write_glb(path: &Path, meshes: &[Mesh], objects: &[GlbObject]) -> std::io::Result<u64> {
-    write_atomically(path, |w| write_glb_to(w, meshes, objects))
+pub fn write_glb(
+    path: &Path,
+    inputs: &[&Path],
+    meshes: &[Mesh],
+    objects: &[GlbObject],
+) -> std::io::Result<u64> {
+    write_atomically(path, inputs, |w| write_glb_to(w, meshes, objects))
 }
 
-/// Writes a file through a temporary file beside it and a rename, so that the
-/// target either appears complete or not at all. The file gets mode 0644.
+/// Writes a file under the workspace's output-file policy
+/// ([`engine::outfile`]): through a temporary file beside it and a rename, so
+/// that the target appears complete or not at all; never over a device, a
+/// link's name or one of `inputs`.
 pub fn write_atomically<T>(
     path: &Path,
+    inputs: &[&Path],
     fill: impl FnOnce(&mut BufWriter<&File>) -> std::io::Result<T>,
 ) -> std::io::Result<T> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let tmp = tempfile::Builder::new()
-        .prefix(".hlod-gen-")
-        .suffix(".tmp")
-        .tempfile_in(dir)?;
-    let mut w = BufWriter::with_capacity(1 << 20, tmp.as_file());
-    let out = fill(&mut w)?;
-    w.flush()?;
-    drop(w);
-    set_public_mode(tmp.as_file())?;
-    tmp.as_file().sync_all()?;
-    tmp.persist(path).map_err(|e| e.error)?;
-    Ok(out)
-}
-
-/// Gives a finished output file the usual 0644 mode (temporary files are 0600).
-pub fn set_public_mode(file: &File) -> std::io::Result<()> {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        file.set_permissions(std::fs::Permissions::from_mode(0o644))?;
-    }
-    #[cfg(not(unix))]
-    let _ = file;
-    Ok(())
+    engine::outfile::write_with(path, inputs, fill)
 }

@@ -87,8 +87,23 @@ pub fn check(p: &PlantParams) -> Result<(), String> {
             64 * p.objects as u64
         ));
     }
+    // The generator holds the whole scene and its GLB document in memory.
+    let need = p.triangles.saturating_mul(BYTES_PER_TRIANGLE);
+    let have = engine::limits::memory_total();
+    if need > have {
+        return Err(format!(
+            "--triangles {}: generating needs about {} in memory ({BYTES_PER_TRIANGLE} bytes a triangle), this machine has {}",
+            p.triangles,
+            engine::limits::human(need),
+            engine::limits::human(have)
+        ));
+    }
     Ok(())
 }
+
+/// Peak memory of generation per triangle (6.5 GiB for the 82M-triangle
+/// plant, rounded up).
+const BYTES_PER_TRIANGLE: u64 = 90;
 
 /// Generates the plant: distinct meshes and the objects placing them. A
 /// second pass with a corrected budget brings the triangle count (after
@@ -190,6 +205,7 @@ fn generate_with(p: &PlantParams, scale: f64) -> (Vec<Mesh>, Vec<GlbObject>) {
 
 /// Generates the plant and writes it as GLB.
 pub fn write_plant(p: &PlantParams, path: &Path) -> anyhow::Result<PlantStats> {
+    engine::outfile::check_output(path, &[])?;
     let (meshes, objects) = generate(p).map_err(anyhow::Error::msg)?;
     let used: Vec<bool> = (0..meshes.len())
         .map(|m| objects.iter().any(|o| o.mesh == m))
@@ -207,7 +223,7 @@ pub fn write_plant(p: &PlantParams, path: &Path) -> anyhow::Result<PlantStats> {
             .filter(|(_, u)| **u)
             .map(|(m, _)| m.tri_count() as u64)
             .sum(),
-        bytes: write_glb(path, &meshes, &objects)
+        bytes: write_glb(path, &[], &meshes, &objects)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
     };
     Ok(stats)

@@ -88,13 +88,14 @@ pub fn write_tiled(
     if !(gap.is_finite() && gap >= 0.0) {
         anyhow::bail!("--gap must be a finite number >= 0");
     }
+    engine::outfile::check_output(out, &[input])?;
     let imported = import::load(input)?;
     let (meshes, objects) = tile(&imported, n, m, baked, gap);
     let triangles = objects
         .iter()
         .map(|o| meshes[o.mesh].tri_count() as u64)
         .sum();
-    let bytes = write_glb(out, &meshes, &objects).with_context(|| format!("{}", out.display()))?;
+    let bytes = write_glb(out, &[input], &meshes, &objects).with_context(|| format!("{}", out.display()))?;
     Ok(TileStats {
         objects: objects.len(),
         triangles,

@@ -12,15 +12,17 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
-use engine::SceneFile;
 use engine::camera::{PathKind, Pose, format_path, generate_path, read_path};
-use engine::disk::{DiskModel, open_scene_source};
+use engine::cli::{in_range, parse_size, size_or_off, zero_or_in};
+use engine::disk::{DiskModel, scene_source};
 use engine::gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use engine::image::RgbaImage;
-use engine::metrics::FrameMetrics;
-use engine::metrics::{Summary, summarize, summary_table, to_csv, vdt_table};
+use engine::io::FileSource;
+use engine::metrics::{CsvStream, Recorder, Summary, TracePoint, summary_table, vdt_table};
+use engine::outfile::write_bytes;
 use engine::render::{NoneRenderer, Renderer};
-use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path};
+use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path_each};
+use engine::SceneFile;
 use glam::Vec3;
 
 #[derive(Parser, Debug)]
@@ -38,7 +40,7 @@ struct Args {
     #[arg(long, default_value = "flythrough")]
     path_kind: String,
     /// Frames of a generated path.
-    #[arg(long, default_value_t = 600)]
+    #[arg(long, default_value_t = 600, value_parser = in_range(1usize, 1_000_000))]
     frames: usize,
     #[arg(long, default_value = "incore,nopre,pre")]
     modes: String,
@@ -49,7 +51,7 @@ struct Args {
     #[arg(long)]
     budgets: Option<String>,
     /// Error tolerance ε in pixels.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = in_range(0.01f32, 10_000.0))]
     tolerance: f32,
     /// none (no rasterisation) or wgpu (a GPU, or lavapipe without one).
     #[arg(long, default_value = "none")]
@@ -59,53 +61,53 @@ struct Args {
     colouring: String,
     /// With wgpu: read back every N-th frame and compare it with the in-core
     /// frame (PSNR); 0 = off.
-    #[arg(long, default_value_t = 30)]
+    #[arg(long, default_value_t = 30, value_parser = in_range(0u32, 1_000_000))]
     psnr_every: u32,
     /// With wgpu: save the sampled frames as PNG under OUT/frames.
     #[arg(long)]
     save_frames: bool,
     /// Modelled speed of the none renderer in triangles per second (0: free).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = zero_or_in(1e3, 1e13))]
     render_rate: f64,
     /// file (the real file, page cache dropped), hdd, ssd, nvme, or LATENCY_MS:MB_PER_S.
     #[arg(long, default_value = "file")]
     disk: String,
     /// Frame pacing (0: as fast as possible).
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, default_value_t = 30.0, value_parser = zero_or_in(1.0f32, 1000.0))]
     fps: f32,
-    #[arg(long, default_value_t = 1280)]
+    #[arg(long, default_value_t = 1280, value_parser = in_range(16u32, 8192))]
     width: u32,
-    #[arg(long, default_value_t = 720)]
+    #[arg(long, default_value_t = 720, value_parser = in_range(16u32, 8192))]
     height: u32,
     /// Bins B of the prefetcher.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, value_parser = in_range(1usize, 4096))]
     bins: usize,
     /// δ in pixels (0: 4 ε).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 100_000.0))]
     delta: f32,
     /// Base widening of F_I, degrees.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, default_value_t = 30.0, value_parser = in_range(0.0f32, 180.0))]
     margin: f32,
     /// Widest F_I, degrees (90 or more: all around the eye).
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(long, default_value_t = 60.0, value_parser = in_range(0.0f32, 180.0))]
     max_margin: f32,
     /// Levels of PAR/CHD prefetched.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = in_range(0u8, 16))]
     prefetch_depth: u8,
     /// Sweep: reps of F_I's front up to this size (bytes, KiB, MiB) are also
     /// read in file order, alternating with the bins; 0 = off.
     #[arg(long, default_value = "0")]
     sweep: String,
     /// Largest share of the budget for prefetched reps not yet drawn.
-    #[arg(long, default_value_t = 0.6)]
+    #[arg(long, default_value_t = 0.6, value_parser = in_range(0.01f32, 1.0))]
     speculative_share: f32,
     /// Lookahead: P_I also prefetches the fronts of the positions the
     /// camera's motion reaches in this many frames (and a third of it); 0 = off.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, value_parser = in_range(0u32, 10_000))]
     lookahead: u32,
     /// F_I goes all around the eye whenever the all-around front takes at
     /// most this share of the budget; 0 = never.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = in_range(0.0f32, 1000.0))]
     all_around: f32,
     /// Print what any fetching policy could do on this path (from the
     /// fronts alone: the first-time reps, the oracle's working set, the disk
@@ -117,7 +119,7 @@ struct Args {
     /// begins (P_I loads the first front and prefetches around it, as an
     /// in-core viewer loads everything before its first frame); they are
     /// reported as the start-up, not as path frames.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = in_range(0usize, 1_000_000))]
     warmup: usize,
     /// Output directory for CSVs, the summary, plots and the path used.
     #[arg(long, default_value = "out/bench")]
@@ -134,16 +136,8 @@ struct Args {
     /// every missing rep): Stage II reads only what it can finish this long
     /// after the fetch command; the rest is drawn as its nearest resident
     /// ancestor (counted as substituted and late) and read after the frame.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 60_000.0))]
     stall_deadline: f32,
-}
-
-/// A size as `--budget` takes it, or `0` / `off`.
-fn size_or_off(s: &str, data_bytes: u64) -> Result<u64> {
-    match s.trim() {
-        "0" | "off" => Ok(0),
-        g => engine::cli::parse_budget(g, data_bytes),
-    }
 }
 
 fn main() -> ExitCode {
@@ -178,16 +172,18 @@ fn run(a: Args) -> Result<()> {
     } else {
         Some(DiskModel::parse(&a.disk).map_err(anyhow::Error::msg)?)
     };
-    let finite_non_negative = |v: f64| v.is_finite() && v >= 0.0;
-    if !(finite_non_negative(f64::from(a.fps)) && finite_non_negative(a.render_rate)) {
-        bail!("--fps and --render-rate must be non-negative numbers");
-    }
-    let scene = SceneFile::open(&a.scene).with_context(|| a.scene.display().to_string())?;
+    // The scene is opened once and held for the whole run: every mode
+    // reads the same file even if its path is replaced meanwhile.
+    let scene_name = a.scene.display().to_string();
+    let file = std::fs::File::open(&a.scene).with_context(|| scene_name.clone())?;
+    let scene = SceneFile::from_source(FileSource::from_file(file.try_clone()?)?)
+        .with_context(|| scene_name.clone())?;
     let skel = Arc::new(scene.skeleton().clone());
+    drop(scene);
     let data_bytes: u64 = skel.reps.iter().map(|r| r.extent()).sum();
-    let vdt_pool = engine::cli::parse_budget(&a.vdt_pool, data_bytes)?;
-    let coalesce_gap = size_or_off(&a.coalesce_gap, data_bytes).context("--coalesce-gap")?;
-    let sweep_bytes = u32::try_from(size_or_off(&a.sweep, data_bytes).context("--sweep")?)
+    let vdt_pool = parse_size("--vdt-pool", &a.vdt_pool, data_bytes, 100.0)?;
+    let coalesce_gap = size_or_off("--coalesce-gap", &a.coalesce_gap, data_bytes)?;
+    let sweep_bytes = u32::try_from(size_or_off("--sweep", &a.sweep, data_bytes)?)
         .context("--sweep: at most 4 GiB")?;
     let budgets: Vec<u64> = match &a.budgets {
         Some(list) => list
@@ -209,14 +205,11 @@ fn run(a: Args) -> Result<()> {
                 "approach-orbit" => PathKind::ApproachOrbit,
                 k => bail!("--path-kind {k:?}: use flythrough, approach, orbit or approach-orbit"),
             };
-            if a.frames == 0 || a.frames > 1_000_000 {
-                bail!("--frames must be in 1..=1000000");
-            }
             generate_path(kind, min, max, a.frames)
         }
     };
     std::fs::create_dir_all(&a.out).with_context(|| a.out.display().to_string())?;
-    std::fs::write(a.out.join("path.txt"), format_path(&poses))?;
+    write_bytes(&a.out.join("path.txt"), format_path(&poses).as_bytes())?;
     let diag = (max - min).length().max(1.0);
     let params = RuntimeParams {
         mode: Mode::Pre,
@@ -259,7 +252,7 @@ fn run(a: Args) -> Result<()> {
     );
     if a.bounds {
         let text = bounds::bounds(&skel, &poses, &params, &budgets, disk, a.fps);
-        std::fs::write(a.out.join("bounds.md"), &text)?;
+        write_bytes(&a.out.join("bounds.md"), text.as_bytes())?;
         println!("{text}");
         return Ok(());
     }
@@ -269,15 +262,13 @@ fn run(a: Args) -> Result<()> {
         f64::INFINITY
     };
     let mut rows: Vec<Summary> = Vec::new();
-    let mut done: Vec<(Mode, u64, Vec<FrameMetrics>)> = Vec::new();
+    let mut done: Vec<(Mode, u64, Vec<TracePoint>)> = Vec::new();
+    let mut tags: std::collections::BTreeSet<String> = std::collections::BTreeSet::new();
     let mut reference: Vec<(u32, RgbaImage)> = Vec::new();
     let mut quality = String::from("mode,budget_bytes,frame,psnr_db,substituted\n");
     let mut quality_rows: Vec<String> = Vec::new();
     let mut startup =
         String::from("\n| run | start-up ms | start-up MiB read |\n|---|---:|---:|\n");
-    if a.warmup > 1_000_000 {
-        bail!("--warmup must be at most 1000000 frames");
-    }
     let runs = budgets
         .iter()
         .enumerate()
@@ -287,8 +278,7 @@ fn run(a: Args) -> Result<()> {
             continue; // independent of the footprint
         }
         let model = if mode == Mode::Incore { None } else { disk };
-        let source =
-            open_scene_source(&a.scene, model).with_context(|| a.scene.display().to_string())?;
+        let source = scene_source(file.try_clone()?, model).with_context(|| scene_name.clone())?;
         let params = RuntimeParams {
             mode,
             budget_bytes: budget,
@@ -324,36 +314,52 @@ fn run(a: Args) -> Result<()> {
             Some(r) => r,
             None => &mut none_r,
         };
-        // The first frame loads the first front; the others come a frame
-        // period apart after it.
-        let mut warm = run_path(&mut walk, &poses[..a.warmup.min(1)], renderer, a.fps)?;
-        let rest = vec![poses[0]; a.warmup.saturating_sub(1)];
-        warm.extend(run_path(&mut walk, &rest, renderer, a.fps)?);
-        let start_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let mut frames = run_path(&mut walk, &poses, renderer, a.fps)?;
-        drop(walk);
-        for (i, f) in frames.iter_mut().enumerate() {
-            f.frame = i as u32; // path frames, after the start-up
-        }
-        let tag = if budgets.len() > 1 && mode != Mode::Incore {
+        // Every sweep point's files have a name of their own (two budgets
+        // that round to the same MiB get their bytes in the name).
+        let mut tag = if budgets.len() > 1 && mode != Mode::Incore {
             format!("{}-{:.2}MiB", mode.name(), budget as f64 / 1048576.0)
         } else {
             mode.name().to_string()
         };
-        std::fs::write(a.out.join(format!("{tag}.csv")), to_csv(&frames))?;
-        let read: u64 = warm.iter().map(|f| f.stage2_bytes + f.prefetch_bytes).sum();
+        if tags.contains(&tag) {
+            tag = format!("{}-{budget}B", mode.name());
+        }
+        if !tags.insert(tag.clone()) {
+            continue; // the same budget twice in the list
+        }
+        let over_budget = |f: &engine::metrics::FrameMetrics| {
+            mode != Mode::Incore && (f.max_resident_bytes > budget || f.gpu_bytes > budget)
+        };
+        // The first frame loads the first front; the others come a frame
+        // period apart after it.
+        let mut warm_read = 0u64;
+        let mut over = 0usize;
+        let mut warm_each = |f: engine::metrics::FrameMetrics| {
+            warm_read += f.stage2_bytes + f.prefetch_bytes;
+            over += usize::from(over_budget(&f));
+            Ok(())
+        };
+        run_path_each(&mut walk, &poses[..a.warmup.min(1)], renderer, a.fps, &mut warm_each)?;
+        let rest = vec![poses[0]; a.warmup.saturating_sub(1)];
+        run_path_each(&mut walk, &rest, renderer, a.fps, &mut warm_each)?;
+        let start_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let mut csv = CsvStream::create(&a.out.join(format!("{tag}.csv")))?;
+        let mut rec = Recorder::default();
+        let mut i = 0u32;
+        run_path_each(&mut walk, &poses, renderer, a.fps, |mut f| {
+            f.frame = i; // path frames, after the start-up
+            i += 1;
+            over += usize::from(over_budget(&f));
+            rec.push(&f);
+            csv.push(&f)
+        })?;
+        drop(walk);
+        csv.finish()?;
         startup.push_str(&format!(
             "| {tag} | {start_ms:.0} | {:.2} |\n",
-            read as f64 / 1048576.0
+            warm_read as f64 / 1048576.0
         ));
-        let warm_over = warm
-            .iter()
-            .any(|f| f.max_resident_bytes > budget || f.gpu_bytes > budget);
-        let over = frames
-            .iter()
-            .filter(|f| f.max_resident_bytes > budget || f.gpu_bytes > budget)
-            .count();
-        if mode != Mode::Incore && (over > 0 || warm_over) {
+        if over > 0 {
             bail!(
                 "mode {}: the footprint exceeded the budget on {over} frames",
                 mode.name()
@@ -382,16 +388,16 @@ fn run(a: Args) -> Result<()> {
             if mode == Mode::Incore {
                 reference = caps;
             } else if !reference.is_empty() {
-                let q = compare(&caps, &reference, &frames);
+                let q = compare(&caps, &reference, rec.trace());
                 for (i, psnr, sub) in &q {
                     quality.push_str(&format!("{},{budget},{i},{psnr:.3},{sub}\n", mode.name()));
                 }
                 quality_rows.push(quality_row(&tag, &q));
             }
         }
-        rows.push(summarize(&frames, period_ms));
-        eprintln!("{tag}: done");
-        done.push((mode, budget, frames));
+        rows.push(rec.summary(period_ms));
+        eprintln!("{tag}: done ({})", memory_note());
+        done.push((mode, budget, rec.trace().to_vec()));
     }
     let mut table = summary_table(&rows);
     if skel.reps.iter().any(|r| r.is_vdt()) {
@@ -423,9 +429,9 @@ fn run(a: Args) -> Result<()> {
         );
         println!("{q}");
         report.push_str(&q);
-        std::fs::write(a.out.join("psnr.csv"), &quality)?;
+        write_bytes(&a.out.join("psnr.csv"), quality.as_bytes())?;
     }
-    std::fs::write(a.out.join("summary.md"), &report)?;
+    write_bytes(&a.out.join("summary.md"), report.as_bytes())?;
     write_plots(&a.out, &done, budget, period_ms)?;
     println!(
         "per-frame CSVs, summary.md, plots (*.png) and path.txt in {}",
@@ -438,7 +444,7 @@ fn run(a: Args) -> Result<()> {
 fn compare(
     caps: &[(u32, RgbaImage)],
     reference: &[(u32, RgbaImage)],
-    frames: &[FrameMetrics],
+    frames: &[TracePoint],
 ) -> Vec<(u32, f64, u32)> {
     caps.iter()
         .filter_map(|(i, img)| {
@@ -447,6 +453,22 @@ fn compare(
             Some((*i, d.psnr_db, frames.get(*i as usize)?.substituted))
         })
         .collect()
+}
+
+/// This process's resident memory now and at its peak (Linux), for the
+/// log of long runs.
+fn memory_note() -> String {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    let field = |name: &str| {
+        status
+            .lines()
+            .find_map(|l| l.strip_prefix(name))
+            .map(|v| v.trim().to_string())
+    };
+    match (field("VmRSS:"), field("VmHWM:")) {
+        (Some(rss), Some(peak)) => format!("RSS {rss}, peak {peak}"),
+        _ => "RSS unknown".into(),
+    }
 }
 
 fn quality_row(tag: &str, q: &[(u32, f64, u32)]) -> String {
@@ -465,7 +487,7 @@ fn quality_row(tag: &str, q: &[(u32, f64, u32)]) -> String {
 
 fn write_plots(
     out: &Path,
-    done: &[(Mode, u64, Vec<FrameMetrics>)],
+    done: &[(Mode, u64, Vec<TracePoint>)],
     budget: u64,
     period_ms: f64,
 ) -> Result<()> {

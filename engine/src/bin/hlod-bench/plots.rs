@@ -7,7 +7,7 @@ use std::sync::Once;
 
 use anyhow::{Result, anyhow};
 use engine::image::RgbaImage;
-use engine::metrics::FrameMetrics;
+use engine::metrics::TracePoint;
 use plotters::prelude::*;
 
 const SIZE: (u32, u32) = (1200, 600);
@@ -16,7 +16,7 @@ const MIB: f64 = 1048576.0;
 /// One run's frames and its legend label.
 pub struct Run<'a> {
     pub label: String,
-    pub frames: &'a [FrameMetrics],
+    pub frames: &'a [TracePoint],
 }
 
 /// A point of the footprint sweep.

@@ -12,7 +12,7 @@
 //! draws them. Their bytes are demand bytes (`late_bytes`), reported with
 //! Stage II's.
 
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use super::Loader;
 use crate::skeleton::RepId;
@@ -28,7 +28,10 @@ impl Loader {
             return true;
         }
         let need = self.first_block_s(r);
-        Instant::now() + Duration::from_secs_f64(need) <= at + Duration::from_secs_f32(d)
+        let Some(deadline) = crate::limits::after(at, f64::from(d)) else {
+            return true;
+        };
+        crate::limits::after(Instant::now(), need).is_some_and(|t| t <= deadline)
     }
 
     /// Whether rep `r` is late: in this frame's front and past its deadline.

@@ -317,7 +317,7 @@ impl Loader {
         let Some(due) = self.next_fetch else {
             return true;
         };
-        Instant::now() + Duration::from_secs_f64(need_s) <= due
+        crate::limits::after(Instant::now(), need_s).is_some_and(|t| t <= due)
     }
 
     /// One read from the queue `queue` picks (the next rep still wanted), and

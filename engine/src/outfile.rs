@@ -1,0 +1,444 @@
+//! The one output-file policy of every writer in the workspace (scene files,
+//! generated GLBs, `.vdt` files, benchmark CSVs, summaries and plots).
+//!
+//! - An output is a regular file or a new one: a device (`/dev/null`), a
+//!   directory, a FIFO or a socket is refused, never replaced.
+//! - A symbolic link is followed: its target is what gets written (a
+//!   dangling link is refused), the link itself stays.
+//! - An output is never one of the command's inputs (same device and inode,
+//!   hard links included).
+//! - It is written to a temporary file beside the target and renamed over it
+//!   only when complete ([`OutputFile::commit`]), so the target appears whole
+//!   or not at all. The temporary file is removed when the writer fails or is
+//!   dropped, and on SIGINT, SIGTERM and SIGHUP; one left by a process killed
+//!   outright (SIGKILL, power loss) is removed by the next writer into the
+//!   same folder: every live temporary file holds an exclusive lock, so one
+//!   whose lock can be taken has no owner.
+//! - [`ensure_free`] checks the free space of the target's file system.
+
+use std::fs::File;
+use std::io;
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, Once};
+
+/// Suffix of every temporary output file; also how stale ones are found.
+pub const TEMP_SUFFIX: &str = ".hlod-tmp";
+
+/// Why an output cannot be written.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    #[error("{}: is {what}, not a regular file; refusing to replace it", path.display())]
+    NotRegular { path: PathBuf, what: &'static str },
+    #[error("{}: is the input {}; refusing to overwrite it", path.display(), input.display())]
+    IsInput { path: PathBuf, input: PathBuf },
+    #[error("{}: is a symbolic link whose target does not exist", path.display())]
+    DanglingLink { path: PathBuf },
+    #[error(
+        "{}: needs {} free, the file system has {}",
+        path.display(),
+        crate::limits::human(*need),
+        crate::limits::human(*free)
+    )]
+    NoSpace { path: PathBuf, need: u64, free: u64 },
+    #[error("{}: {source}", path.display())]
+    Io { path: PathBuf, source: io::Error },
+}
+
+impl From<OutputError> for io::Error {
+    fn from(e: OutputError) -> Self {
+        match e {
+            OutputError::Io { source, .. } => source,
+            OutputError::NoSpace { .. } => io::Error::new(io::ErrorKind::StorageFull, e.to_string()),
+            e => io::Error::new(io::ErrorKind::InvalidInput, e.to_string()),
+        }
+    }
+}
+
+/// An output being written: a locked temporary file beside its target.
+#[derive(Debug)]
+pub struct OutputFile {
+    target: PathBuf,
+    tmp: Option<tempfile::NamedTempFile>,
+}
+
+impl OutputFile {
+    /// Starts writing `path` (see the module's policy); `inputs` are the
+    /// command's input files, which the output may not be.
+    pub fn create(path: &Path, inputs: &[&Path]) -> Result<Self, OutputError> {
+        let target = resolve_target(path, inputs)?;
+        let dir = parent_dir(&target);
+        let io_err = |source| OutputError::Io {
+            path: target.clone(),
+            source,
+        };
+        remove_stale(dir);
+        install_signal_cleanup();
+        let name = target
+            .file_name()
+            .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".{name}."))
+            .suffix(TEMP_SUFFIX)
+            .tempfile_in(dir)
+            .map_err(io_err)?;
+        tmp.as_file().try_lock().map_err(|e| io_err(e.into()))?;
+        live().push(tmp.path().to_path_buf());
+        Ok(Self {
+            target,
+            tmp: Some(tmp),
+        })
+    }
+
+    /// The file to write (the temporary file).
+    pub fn file(&self) -> &File {
+        self.tmp.as_ref().expect("not committed").as_file()
+    }
+
+    /// Where the output goes (a symbolic link's target, resolved).
+    pub fn target(&self) -> &Path {
+        &self.target
+    }
+
+    /// Makes the written file the target: mode 0644, synced, renamed over
+    /// the target.
+    pub fn commit(mut self) -> Result<(), OutputError> {
+        let tmp = self.tmp.take().expect("committed once");
+        let io_err = |source| OutputError::Io {
+            path: self.target.clone(),
+            source,
+        };
+        set_public_mode(tmp.as_file()).map_err(io_err)?;
+        tmp.as_file().sync_all().map_err(io_err)?;
+        let tmp_path = tmp.path().to_path_buf();
+        let persisted = tmp.persist(&self.target);
+        forget_live(&tmp_path);
+        let file = persisted.map_err(|e| io_err(e.error))?;
+        // The lock goes with the file; the name is the target's now.
+        drop(file);
+        Ok(())
+    }
+}
+
+impl Drop for OutputFile {
+    fn drop(&mut self) {
+        if let Some(tmp) = self.tmp.take() {
+            forget_live(tmp.path());
+            // `NamedTempFile`'s drop removes the file.
+        }
+    }
+}
+
+/// Writes `path` through an [`OutputFile`]: `fill` writes into a buffered
+/// writer, and the target appears only when it returned `Ok`.
+pub fn write_with<T>(
+    path: &Path,
+    inputs: &[&Path],
+    fill: impl FnOnce(&mut io::BufWriter<&File>) -> io::Result<T>,
+) -> io::Result<T> {
+    use io::Write;
+    let out = OutputFile::create(path, inputs)?;
+    let mut w = io::BufWriter::with_capacity(1 << 20, out.file());
+    let v = fill(&mut w)?;
+    w.flush()?;
+    drop(w);
+    out.commit()?;
+    Ok(v)
+}
+
+/// Writes `bytes` to `path` under the policy (no inputs to protect).
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    write_with(path, &[], |w| io::Write::write_all(w, bytes))
+}
+
+/// Fails unless the file system holding `path` (a file or a folder) has at
+/// least `need` bytes free.
+pub fn ensure_free(path: &Path, need: u64) -> Result<(), OutputError> {
+    let free = free_bytes(path).map_err(|source| OutputError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if free < need {
+        return Err(OutputError::NoSpace {
+            path: path.to_path_buf(),
+            need,
+            free,
+        });
+    }
+    Ok(())
+}
+
+/// Bytes available to an unprivileged writer on `path`'s file system
+/// (`u64::MAX` where it cannot be asked).
+pub fn free_bytes(path: &Path) -> io::Result<u64> {
+    #[cfg(target_os = "linux")]
+    {
+        let dir = if path.is_dir() { path } else { parent_dir(path) };
+        let s = rustix::fs::statvfs(dir)?;
+        Ok(s.f_bavail.saturating_mul(s.f_frsize))
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = path;
+        Ok(u64::MAX)
+    }
+}
+
+/// The folder a file path lives in (`.` for a bare name).
+pub fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
+/// Checks `path` against the policy without writing anything (a command
+/// that works long before it writes calls this first); returns the path
+/// that will be written (a link's target).
+pub fn check_output(path: &Path, inputs: &[&Path]) -> Result<PathBuf, OutputError> {
+    resolve_target(path, inputs)
+}
+
+/// Applies the policy to `path`: the path to write (a link's target).
+fn resolve_target(path: &Path, inputs: &[&Path]) -> Result<PathBuf, OutputError> {
+    let meta = match std::fs::symlink_metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(path.to_path_buf()),
+        Err(source) => {
+            return Err(OutputError::Io {
+                path: path.to_path_buf(),
+                source,
+            });
+        }
+    };
+    let target = if meta.file_type().is_symlink() {
+        std::fs::canonicalize(path).map_err(|_| OutputError::DanglingLink {
+            path: path.to_path_buf(),
+        })?
+    } else {
+        path.to_path_buf()
+    };
+    let meta = std::fs::metadata(&target).map_err(|source| OutputError::Io {
+        path: target.clone(),
+        source,
+    })?;
+    if !meta.is_file() {
+        return Err(OutputError::NotRegular {
+            path: path.to_path_buf(),
+            what: kind_of(&meta),
+        });
+    }
+    for input in inputs {
+        if let Ok(im) = std::fs::metadata(input)
+            && same_file(&meta, &im)
+        {
+            return Err(OutputError::IsInput {
+                path: path.to_path_buf(),
+                input: input.to_path_buf(),
+            });
+        }
+    }
+    Ok(target)
+}
+
+fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        a.dev() == b.dev() && a.ino() == b.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (a, b);
+        false
+    }
+}
+
+fn kind_of(meta: &std::fs::Metadata) -> &'static str {
+    let t = meta.file_type();
+    if t.is_dir() {
+        return "a directory";
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_fifo() {
+            return "a FIFO";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    "not a regular file"
+}
+
+/// Removes temporary outputs in `dir` whose writer is gone (their lock can
+/// be taken). Best effort: a folder that cannot be listed is left alone.
+pub fn remove_stale(dir: &Path) -> usize {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return 0;
+    };
+    let mut removed = 0;
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let name = name.to_string_lossy();
+        if !(name.starts_with('.') && name.ends_with(TEMP_SUFFIX)) {
+            continue;
+        }
+        let path = e.path();
+        let Ok(f) = File::open(&path) else { continue };
+        if f.try_lock().is_ok() && std::fs::remove_file(&path).is_ok() {
+            tracing::info!("removed {} left by an interrupted run", path.display());
+            removed += 1;
+        }
+    }
+    removed
+}
+
+/// Gives a finished output the usual 0644 mode (temporary files are 0600).
+pub fn set_public_mode(file: &File) -> io::Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        file.set_permissions(std::fs::Permissions::from_mode(0o644))?;
+    }
+    #[cfg(not(unix))]
+    let _ = file;
+    Ok(())
+}
+
+/// Temporary outputs of this process, removed on a terminating signal.
+static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn live() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    LIVE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn forget_live(path: &Path) {
+    live().retain(|p| p != path);
+}
+
+/// Once per process: a thread that removes the live temporary outputs on
+/// SIGINT, SIGTERM or SIGHUP and then ends the process as that signal
+/// would have.
+fn install_signal_cleanup() {
+    #[cfg(unix)]
+    {
+        static ONCE: Once = Once::new();
+        ONCE.call_once(|| {
+            use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+            let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP])
+            else {
+                return;
+            };
+            let spawned = std::thread::Builder::new()
+                .name("output-cleanup".into())
+                .spawn(move || {
+                    if let Some(sig) = signals.forever().next() {
+                        for p in live().drain(..) {
+                            let _ = std::fs::remove_file(p);
+                        }
+                        let _ = signal_hook::low_level::emulate_default_handler(sig);
+                        std::process::exit(128 + sig);
+                    }
+                });
+            drop(spawned);
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn devices_directories_and_inputs_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        for dev in ["/dev/null", "/dev/full"] {
+            let e = OutputFile::create(Path::new(dev), &[]).unwrap_err();
+            assert!(matches!(e, OutputError::NotRegular { .. }), "{e}");
+        }
+        let e = OutputFile::create(dir.path(), &[]).unwrap_err();
+        assert!(matches!(e, OutputError::NotRegular { .. }), "{e}");
+        let input = dir.path().join("in.glb");
+        std::fs::write(&input, b"x").unwrap();
+        let e = OutputFile::create(&input, &[&input]).unwrap_err();
+        assert!(matches!(e, OutputError::IsInput { .. }), "{e}");
+        let hard = dir.path().join("hard.glb");
+        std::fs::hard_link(&input, &hard).unwrap();
+        assert!(OutputFile::create(&hard, &[&input]).is_err());
+        assert_eq!(std::fs::read(&input).unwrap(), b"x");
+        assert_eq!(names(dir.path()), ["hard.glb", "in.glb"]);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_symlink_is_followed_not_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        let real = dir.path().join("real.hlod");
+        std::fs::write(&real, b"old").unwrap();
+        let link = dir.path().join("link.hlod");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        write_bytes(&link, b"new").unwrap();
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(std::fs::read(&real).unwrap(), b"new");
+        let dangling = dir.path().join("dangling");
+        std::os::unix::fs::symlink(dir.path().join("nowhere/x"), &dangling).unwrap();
+        assert!(matches!(
+            OutputFile::create(&dangling, &[]),
+            Err(OutputError::DanglingLink { .. })
+        ));
+    }
+
+    #[test]
+    fn a_failed_or_dropped_write_leaves_nothing_and_stale_files_are_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("o.csv");
+        let r = write_with(&out, &[], |_| -> io::Result<()> {
+            Err(io::Error::other("fail"))
+        });
+        assert!(r.is_err());
+        drop(OutputFile::create(&out, &[]).unwrap());
+        assert!(names(dir.path()).is_empty());
+        // One of a live writer: locked.
+        let busy = OutputFile::create(&dir.path().join("p.csv"), &[]).unwrap();
+        // One left by a killed writer: no lock held on it.
+        let stale = dir.path().join(format!(".o.csv.abc{TEMP_SUFFIX}"));
+        std::fs::write(&stale, b"partial").unwrap();
+        assert_eq!(remove_stale(dir.path()), 1);
+        assert_eq!(names(dir.path()).len(), 1, "the live one stays");
+        drop(busy);
+        write_bytes(&out, b"ok").unwrap();
+        assert_eq!(names(dir.path()), ["o.csv"]);
+        assert_eq!(std::fs::read(&out).unwrap(), b"ok");
+    }
+
+    #[test]
+    fn free_space_is_checked() {
+        let dir = tempfile::tempdir().unwrap();
+        assert!(ensure_free(dir.path(), 1).is_ok());
+        assert!(matches!(
+            ensure_free(dir.path(), u64::MAX),
+            Err(OutputError::NoSpace { .. })
+        ));
+    }
+}
