@@ -19,3 +19,11 @@ else
   echo "test: clippy not installed, lint check skipped"
 fi
 cargo test --workspace
+# A short run of each fuzz target (cargo-fuzz on nightly; scripts/fuzz.sh runs
+# the full campaign). Without nightly it is skipped, and said; the targets'
+# seeds and regression inputs still run in `cargo test` above.
+if cargo +nightly --version >/dev/null 2>&1; then
+  bash scripts/fuzz.sh 20000
+else
+  echo "test: no nightly toolchain: fuzz smoke run skipped (seeds and regressions ran in cargo test)"
+fi

@@ -305,6 +305,11 @@ pub enum PathKind {
     /// Approach an object from afar, then orbit it while closing in (the
     /// view-dependence-tree benchmark's path).
     ApproachOrbit,
+    /// A hostile random walk for soak tests: wandering at random speeds,
+    /// turning at random, jumping to a random place (inside or around the
+    /// scene) every few seconds, with a random field of view; the same
+    /// `seed` gives the same path.
+    Random { seed: u64 },
 }
 
 /// Generates a path of `frames` poses over the box `min..max` (deterministic).
@@ -332,6 +337,7 @@ pub fn generate_path(kind: PathKind, min: Vec3, max: Vec3, frames: usize) -> Vec
             })
             .collect(),
         PathKind::Flythrough => flythrough(min, e, n, fov),
+        PathKind::Random { seed } => random_walk(min, e, n, seed),
         PathKind::ApproachOrbit => (0..n)
             .map(|i| {
                 let t = i as f32 / (n - 1) as f32;
@@ -351,6 +357,45 @@ pub fn generate_path(kind: PathKind, min: Vec3, max: Vec3, frames: usize) -> Vec
             })
             .collect(),
     }
+}
+
+/// [`PathKind::Random`]: xorshift64* draws, so no dependency and the same
+/// poses on every platform.
+fn random_walk(min: Vec3, e: Vec3, n: usize, seed: u64) -> Vec<Pose> {
+    let mut state = seed ^ 0x9e37_79b9_7f4a_7c15;
+    let mut next = move || {
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        (state.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let diag = e.length();
+    let place = |next: &mut dyn FnMut() -> f32| {
+        // Up to a quarter of the box beyond each side.
+        min + e * Vec3::new(next(), next(), next()) * 1.5 - e * 0.25
+    };
+    let mut pos = place(&mut next);
+    let (mut yaw, mut pitch) = (next() * std::f32::consts::TAU, 0.0f32);
+    let mut fov = 60.0;
+    let mut speed = diag / 1200.0;
+    let mut jump_in = 60 + (next() * 240.0) as usize;
+    (0..n)
+        .map(|_| {
+            jump_in = jump_in.saturating_sub(1);
+            if jump_in == 0 {
+                pos = place(&mut next);
+                yaw = next() * std::f32::consts::TAU;
+                fov = 20.0 + next() * 80.0;
+                speed = diag / (300.0 + next() * 3000.0);
+                jump_in = 60 + (next() * 240.0) as usize;
+            }
+            yaw += (next() - 0.5) * 0.3;
+            pitch = (pitch + (next() - 0.5) * 0.1).clamp(-1.2, 1.2);
+            let pose = Pose::from_yaw_pitch(pos, yaw, pitch, fov);
+            pos += pose.forward() * speed;
+            pose
+        })
+        .collect()
 }
 
 /// A closed route through the scene at about a third of its height, flown at
@@ -485,6 +530,25 @@ mod tests {
             parse_path("# nothing\n", "p"),
             Err(PathError::Empty { .. })
         ));
+        // A byte-order mark is not a syntax error.
+        assert_eq!(
+            parse_path("\u{feff}1 2 3 0 0 0 1 60\n", "p").unwrap().len(),
+            1
+        );
+    }
+
+    #[test]
+    fn random_walks_are_reproducible_jump_and_stay_parseable() {
+        let (lo, hi) = (Vec3::ZERO, Vec3::new(100.0, 20.0, 50.0));
+        let a = generate_path(PathKind::Random { seed: 7 }, lo, hi, 2000);
+        assert_eq!(a, generate_path(PathKind::Random { seed: 7 }, lo, hi, 2000));
+        assert_ne!(a, generate_path(PathKind::Random { seed: 8 }, lo, hi, 2000));
+        let jumps = a
+            .windows(2)
+            .filter(|w| w[0].position.distance(w[1].position) > 5.0)
+            .count();
+        assert!(jumps >= 5, "{jumps} jumps");
+        assert_eq!(parse_path(&format_path(&a), "r").unwrap().len(), 2000);
     }
 
     #[test]

@@ -259,14 +259,20 @@ mod tests {
         let c = DiskModel::parse("5:100").unwrap();
         assert_eq!(c.latency, Duration::from_millis(5));
         assert_eq!(c.bytes_per_sec, 100e6);
-        for bad in ["floppy", "5", "x:1", "1:0", "-1:5", "1:NaN", "0:1e-30", "1e30:5"] {
+        for bad in [
+            "floppy", "5", "x:1", "1:0", "-1:5", "1:NaN", "0:1e-30", "1e30:5",
+        ] {
             assert!(DiskModel::parse(bad).is_err(), "{bad}");
         }
     }
 
     #[test]
     fn switching_source_changes_after_its_reads() {
-        let src = SwitchingSource::new(MemSource::new(vec![1u8; 8]), MemSource::new(vec![2u8; 4]), 2);
+        let src = SwitchingSource::new(
+            MemSource::new(vec![1u8; 8]),
+            MemSource::new(vec![2u8; 4]),
+            2,
+        );
         let mut b = [0u8; 2];
         assert_eq!(src.len(), 8);
         src.read_at(6, &mut b).unwrap();

@@ -48,7 +48,9 @@ impl From<OutputError> for io::Error {
     fn from(e: OutputError) -> Self {
         match e {
             OutputError::Io { source, .. } => source,
-            OutputError::NoSpace { .. } => io::Error::new(io::ErrorKind::StorageFull, e.to_string()),
+            OutputError::NoSpace { .. } => {
+                io::Error::new(io::ErrorKind::StorageFull, e.to_string())
+            }
             e => io::Error::new(io::ErrorKind::InvalidInput, e.to_string()),
         }
     }
@@ -172,7 +174,11 @@ pub fn ensure_free(path: &Path, need: u64) -> Result<(), OutputError> {
 pub fn free_bytes(path: &Path) -> io::Result<u64> {
     #[cfg(target_os = "linux")]
     {
-        let dir = if path.is_dir() { path } else { parent_dir(path) };
+        let dir = if path.is_dir() {
+            path
+        } else {
+            parent_dir(path)
+        };
         let s = rustix::fs::statvfs(dir)?;
         Ok(s.f_bavail.saturating_mul(s.f_frsize))
     }

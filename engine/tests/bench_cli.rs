@@ -242,3 +242,141 @@ fn wgpu_renderer_reports_image_quality_and_a_missing_adapter_clearly() {
         .unwrap();
     assert_fails(&out, "no usable GPU adapter");
 }
+
+#[test]
+fn nonsense_numbers_are_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_scene(&d.join("s.hlod"));
+    for (opt, value, needle) in [
+        ("--stall-deadline", "1e30", "--stall-deadline"),
+        ("--render-rate", "1e-30", "--render-rate"),
+        ("--disk", "0:1e-30", "out of range"),
+        ("--fps", "1e-9", "--fps"),
+        ("--fps", "NaN", "--fps"),
+        ("--frames", "0", "--frames"),
+        ("--width", "100000", "--width"),
+        ("--warmup", "1e12", "--warmup"),
+        ("--vdt-pool", "0", "--vdt-pool"),
+        ("--budget", "1e30GiB", "this machine's memory"),
+    ] {
+        assert_fails(&bench(d, &["s.hlod", opt, value, "--out", "x"]), needle);
+    }
+    let vdt = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_vdt-bench"))
+            .args(args)
+            .current_dir(d)
+            .output()
+            .unwrap()
+    };
+    assert_fails(&vdt(&["t.vdt", "--frames", "1000000000"]), "--frames");
+    assert_fails(&vdt(&["t.vdt", "--width", "100000"]), "--width");
+    assert!(!d.join("x").exists(), "nothing written");
+}
+
+#[test]
+fn sweep_points_that_round_alike_get_files_of_their_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_scene(&d.join("s.hlod"));
+    let out = bench(
+        d,
+        &[
+            "s.hlod",
+            "--frames",
+            "5",
+            "--fps",
+            "0",
+            "--modes",
+            "pre",
+            "--budgets",
+            "1000000B,1000001B,1000002B",
+            "--out",
+            "o",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csvs: Vec<_> = std::fs::read_dir(d.join("o"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".csv"))
+        .collect();
+    assert_eq!(csvs.len(), 3, "{csvs:?}");
+}
+
+/// `s.hlod` with a header (valid checksum) that claims `nodes` nodes and
+/// a file as long as that needs (sparse).
+fn lying_header(d: &Path, nodes: u32) -> std::path::PathBuf {
+    use engine::FileHeader;
+    let mut bytes = std::fs::read(d.join("s.hlod")).unwrap();
+    let mut h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..128]);
+    h.node_count = nodes;
+    h.skeleton_len = u64::from(nodes) * 64 + u64::from(h.rep_count) * 64;
+    h.file_len = h.skeleton_offset + h.skeleton_len;
+    h.header_crc = 0;
+    h.header_crc = crc32fast::hash(bytemuck::bytes_of(&h));
+    bytes[..128].copy_from_slice(bytemuck::bytes_of(&h));
+    let p = d.join(format!("lie{nodes}.hlod"));
+    std::fs::write(&p, &bytes).unwrap();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&p)
+        .unwrap()
+        .set_len(h.file_len)
+        .unwrap();
+    p
+}
+
+#[test]
+fn a_header_that_lies_about_its_counts_costs_no_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_scene(&d.join("s.hlod"));
+    lying_header(d, 1 << 31);
+    assert_fails(
+        &bench(d, &["lie2147483648.hlod"]),
+        "more than this machine's memory",
+    );
+    // 2^24 nodes: a 1 GiB skeleton, refused by its checksum while the
+    // process may not map more than 600 MB.
+    lying_header(d, 1 << 24);
+    let cmd = format!(
+        "ulimit -v 600000; exec '{}' lie16777216.hlod --out o",
+        env!("CARGO_BIN_EXE_hlod-bench")
+    );
+    let out = Command::new("sh")
+        .args(["-c", &cmd])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    assert_fails(&out, "checksum mismatch in skeleton");
+}
+
+#[test]
+fn path_files_endless_with_a_bom_and_errors_said_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_scene(&d.join("s.hlod"));
+    assert_fails(&bench(d, &["s.hlod", "--path", "/dev/zero"]), "/dev/zero");
+    std::fs::write(d.join("bom.txt"), "\u{feff}# path\n1 0.5 5 0 0 0 1 60\n").unwrap();
+    let out = bench(
+        d,
+        &[
+            "s.hlod", "--path", "bom.txt", "--fps", "0", "--modes", "pre", "--budget", "1MiB",
+            "--out", "o",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = bench(d, &["missing.hlod"]);
+    assert_fails(&out, "missing.hlod");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.matches("No such file").count(), 1, "{err}");
+}

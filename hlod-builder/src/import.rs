@@ -82,6 +82,18 @@ pub fn max_input_bytes() -> u64 {
 
 /// Loads `path`.
 pub fn load(path: &Path) -> Result<Imported, ImportError> {
+    let read_err = |source| ImportError::Read {
+        path: path.to_path_buf(),
+        source,
+    };
+    // A pipe or a device (`/dev/zero`) has no length to bound the read by.
+    let meta = std::fs::metadata(path).map_err(read_err)?;
+    if !meta.is_file() {
+        return Err(read_err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file (a directory, pipe or device): save the model to a file first",
+        )));
+    }
     let gltf = {
         let bytes = engine::limits::read_bounded(path, max_input_bytes()).map_err(|source| {
             ImportError::Read {
@@ -104,6 +116,19 @@ fn parse(bytes: &[u8], path: &Path) -> Result<gltf::Gltf, ImportError> {
         path: path.to_path_buf(),
         source,
     };
+    // gltf 1.4.1 subtracts the header's size from a GLB's length field
+    // unchecked (a panic with overflow checks, found by fuzzing).
+    if let Some(h) = bytes.get(..12)
+        && &h[..4] == b"glTF"
+    {
+        let len = u32::from_le_bytes([h[8], h[9], h[10], h[11]]);
+        if len < 12 {
+            return Err(ImportError::Invalid {
+                path: path.to_path_buf(),
+                what: format!("GLB header: length {len} is shorter than the 12-byte header"),
+            });
+        }
+    }
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice_without_validation(bytes).map_err(parse_err)?;
     let root = document.into_json();

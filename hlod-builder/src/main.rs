@@ -303,7 +303,13 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
         let core = scene
             .read_rep_bytes(r)
             .with_context(|| format!("{}: rep {r}", file.display()))?;
-        let h: engine::vdt::file::VdtHeader = bytemuck::pod_read_unaligned(&core[..112]);
+        let Some(head) = core.get(..std::mem::size_of::<engine::vdt::file::VdtHeader>()) else {
+            bail!(
+                "{}: rep {r}: a view-dependence tree shorter than its header",
+                file.display()
+            );
+        };
+        let h: engine::vdt::file::VdtHeader = bytemuck::pod_read_unaligned(head);
         println!(
             "  tree rep {r} (node {}): {} vertices, {} triangles, error {:.5}; L = {}, {} meta-nodes ({} roots, largest {}), MNT {}, permanent {}, DATA {}, flat tree {}",
             rec.node,

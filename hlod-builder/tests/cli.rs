@@ -208,3 +208,167 @@ fn vdt_report_and_its_failures() {
         1,
     );
 }
+
+fn is_temp(name: &str) -> bool {
+    name.ends_with(engine::outfile::TEMP_SUFFIX)
+}
+
+fn names(d: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn outputs_never_replace_an_input_a_fifo_or_a_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(data("dragon_res4.glb"), d.join("in.glb")).unwrap();
+    let original = std::fs::read(d.join("in.glb")).unwrap();
+    let out = hlod_build(&["build", "in.glb", "-o", "in.glb", "-q"], d);
+    assert_clean_failure(&out, "refusing to overwrite", d, 1);
+    std::fs::hard_link(d.join("in.glb"), d.join("same.glb")).unwrap();
+    let out = hlod_build(&["build", "in.glb", "-o", "same.glb", "-q"], d);
+    assert_clean_failure(&out, "refusing to overwrite", d, 2);
+    let out = hlod_build(
+        &["gen", "tile", "in.glb", "--grid", "2x2", "-o", "in.glb"],
+        d,
+    );
+    assert_clean_failure(&out, "refusing to overwrite", d, 2);
+    assert_eq!(std::fs::read(d.join("in.glb")).unwrap(), original);
+    std::fs::remove_file(d.join("same.glb")).unwrap();
+
+    // A FIFO (as a device would be) is refused and stays what it was.
+    let fifo = d.join("fifo");
+    assert!(
+        Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let out = hlod_build(&["build", "in.glb", "-o", "fifo", "-q"], d);
+    assert_clean_failure(&out, "a FIFO, not a regular file", d, 2);
+    let out = hlod_build(
+        &[
+            "gen",
+            "plant",
+            "--objects",
+            "10",
+            "--triangles",
+            "5000",
+            "-o",
+            "fifo",
+        ],
+        d,
+    );
+    assert_clean_failure(&out, "a FIFO, not a regular file", d, 2);
+    use std::os::unix::fs::FileTypeExt;
+    assert!(
+        std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo()
+    );
+    std::fs::remove_file(&fifo).unwrap();
+
+    // A symbolic link is followed: the target is written, the link stays.
+    std::fs::write(d.join("old.hlod"), b"old").unwrap();
+    std::os::unix::fs::symlink("old.hlod", d.join("link.hlod")).unwrap();
+    let out = hlod_build(&["build", "in.glb", "-o", "link.hlod", "-q"], d);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta = std::fs::symlink_metadata(d.join("link.hlod")).unwrap();
+    assert!(meta.file_type().is_symlink());
+    assert!(engine::SceneFile::open(&d.join("old.hlod")).is_ok());
+    let out = hlod_build(&["relayout", "old.hlod", "-o", "link.hlod"], d);
+    assert_clean_failure(&out, "refusing to overwrite", d, 3);
+}
+
+#[test]
+fn endless_inputs_and_a_full_disk_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = hlod_build(&["build", "/dev/zero", "-o", "z.hlod"], d);
+    assert_clean_failure(&out, "not a regular file", d, 0);
+    // The output's file system fills up mid-build (a file size limit makes
+    // every write past 64 KiB fail, as a full disk would).
+    let cmd = format!(
+        "trap '' XFSZ; ulimit -f 128; exec '{}' build '{}' -o b.hlod -q",
+        env!("CARGO_BIN_EXE_hlod-build"),
+        data("bunny.glb")
+    );
+    let out = Command::new("sh")
+        .args(["-c", &cmd])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    assert_clean_failure(&out, "b.hlod", d, 0);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("File too large"), "{err}");
+    assert_eq!(err.matches("File too large").count(), 1, "said once: {err}");
+}
+
+/// Starts a build of the bunny and waits for its temporary output.
+fn interrupted_build(d: &Path, signal: &str) -> std::process::ExitStatus {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hlod-build"))
+        .args([
+            "build",
+            &data("bunny.glb"),
+            "-o",
+            "b.hlod",
+            "-q",
+            "--vdt-tris",
+            "2000",
+        ])
+        .current_dir(d)
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let t = std::time::Instant::now();
+    while !names(d).iter().any(|n| is_temp(n)) {
+        assert!(t.elapsed().as_secs() < 60, "no temporary output appeared");
+        assert!(child.try_wait().unwrap().is_none(), "the build ended first");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let pid = child.id().to_string();
+    assert!(
+        Command::new("kill")
+            .args([signal, &pid])
+            .status()
+            .unwrap()
+            .success()
+    );
+    child.wait().unwrap()
+}
+
+#[test]
+fn an_interrupted_build_leaves_nothing_behind() {
+    use std::os::unix::process::ExitStatusExt;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // SIGTERM (and SIGINT, SIGHUP): the temporary file goes with the process.
+    let st = interrupted_build(d, "-TERM");
+    assert_eq!(st.signal(), Some(15), "ends as the signal would: {st:?}");
+    assert!(names(d).is_empty(), "left behind: {:?}", names(d));
+    // SIGKILL cannot be caught: what it leaves, the next build removes.
+    let st = interrupted_build(d, "-KILL");
+    assert_eq!(st.signal(), Some(9));
+    assert_eq!(names(d).len(), 1);
+    let out = hlod_build(
+        &["build", &data("dragon_res4.glb"), "-o", "d.hlod", "-q"],
+        d,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(names(d), ["d.hlod"]);
+}

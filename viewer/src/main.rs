@@ -19,8 +19,8 @@ mod overlay;
 mod session;
 mod ui;
 
-use std::path::PathBuf;
 use engine::cli::in_range;
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Parser;

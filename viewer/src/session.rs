@@ -75,16 +75,13 @@ impl Session {
         let diag = (Vec3::from(root.bbox_max) - Vec3::from(root.bbox_min)).length();
         (settings.params.near, settings.params.far) = crate::controls::clip_planes(diag);
         (settings.params.width_px, settings.params.height_px) = size;
-        let (walk, renderer) = start(
+        let target = Target {
             path,
-            &file,
-            &skeleton,
+            file: &file,
+            skel: &skeleton,
             data_bytes,
-            ctx,
-            &settings,
-            size,
-            color_format,
-        )?;
+        };
+        let (walk, renderer) = start(&target, ctx, &settings, size, color_format)?;
         Ok(Self {
             path: path.to_path_buf(),
             file,
@@ -139,16 +136,14 @@ impl Session {
             // The old P_I stops (and frees its reps) before the new one reads.
             self.walk = None;
             self.renderer.clear();
-            let (walk, renderer) = start(
-                &self.path,
-                &self.file,
-                &self.skeleton,
-                self.data_bytes,
-                ctx,
-                &s,
-                (cfg.width, cfg.height),
-                cfg.color_format,
-            )?;
+            let target = Target {
+                path: &self.path,
+                file: &self.file,
+                skel: &self.skeleton,
+                data_bytes: self.data_bytes,
+            };
+            let (walk, renderer) =
+                start(&target, ctx, &s, (cfg.width, cfg.height), cfg.color_format)?;
             self.walk = Some(walk);
             self.renderer = renderer;
         }
@@ -173,41 +168,41 @@ fn budget(data: u64, fraction: f64) -> u64 {
     ((data as f64 * fraction) as u64).max(1)
 }
 
-fn start_walk(
-    path: &Path,
-    file: &std::fs::File,
-    skel: &Arc<Skeleton>,
+/// The scene a walk reads: its file (held open), skeleton and data size.
+struct Target<'a> {
+    path: &'a Path,
+    file: &'a std::fs::File,
+    skel: &'a Arc<Skeleton>,
     data_bytes: u64,
-    s: &Settings,
-) -> Result<Walkthrough, String> {
+}
+
+fn start_walk(t: &Target<'_>, s: &Settings) -> Result<Walkthrough, String> {
     let model = if s.mode == Mode::Incore { None } else { s.disk };
-    let source = file
+    let source = t
+        .file
         .try_clone()
         .and_then(|f| scene_source(f, model))
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+        .map_err(|e| format!("{}: {e}", t.path.display()))?;
     let params = RuntimeParams {
         mode: s.mode,
-        budget_bytes: budget(data_bytes, s.budget_fraction),
+        budget_bytes: budget(t.data_bytes, s.budget_fraction),
         ..s.params
     };
-    Walkthrough::start(skel.clone(), source, params).map_err(|e| e.to_string())
+    Walkthrough::start(t.skel.clone(), source, params).map_err(|e| e.to_string())
 }
 
 fn start(
-    path: &Path,
-    file: &std::fs::File,
-    skel: &Arc<Skeleton>,
-    data_bytes: u64,
+    t: &Target<'_>,
     ctx: &GpuContext,
     s: &Settings,
     size: (u32, u32),
     color_format: wgpu::TextureFormat,
 ) -> Result<(Walkthrough, GpuRenderer), String> {
-    let walk = start_walk(path, file, skel, data_bytes, s)?;
+    let walk = start_walk(t, s)?;
     let capacity = if s.mode == Mode::Incore {
-        data_bytes
+        t.data_bytes
     } else {
-        budget(data_bytes, s.budget_fraction)
+        budget(t.data_bytes, s.budget_fraction)
     };
     let renderer = GpuRenderer::new(
         ctx.clone(),

@@ -1,6 +1,7 @@
 //! `hlod-view` in a real window under Xvfb on lavapipe: it plays a path,
 //! exits after N frames and saves a screenshot that must show the scene; a
-//! scene that cannot be opened leaves the viewer running with the error shown.
+//! scene that cannot be opened leaves the viewer running with the error shown,
+//! and its exit status non-zero.
 //! The screenshots are kept in `target/test-output/` (CI artefacts).
 
 use std::path::{Path, PathBuf};
@@ -133,7 +134,7 @@ fn plays_a_path_and_screenshots_the_scene() {
 }
 
 #[test]
-fn a_scene_that_cannot_open_shows_the_error_and_keeps_running() {
+fn a_scene_that_cannot_open_shows_the_error_keeps_running_and_exits_non_zero() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("bad.hlod"), b"this is not a scene").unwrap();
@@ -152,8 +153,9 @@ fn a_scene_that_cannot_open_shows_the_error_and_keeps_running() {
         ],
     );
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
-    assert!(err.contains("cannot open bad.hlod"), "{err}");
+    // Scripts can tell: the exit status says the scene never opened.
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("error: cannot open bad.hlod"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     let img = RgbaImage::load_png(&d.join("err.png")).unwrap();
     std::fs::copy(d.join("err.png"), artefacts().join("viewer-error.png")).unwrap();

@@ -222,7 +222,10 @@ fn run(a: Args) -> Result<()> {
         mean(&reference, |f| f.ms)
     );
     print!("{head}{table}");
-    engine::outfile::write_bytes(&a.out.join("table2.md"), format!("{head}{table}").as_bytes())?;
+    engine::outfile::write_bytes(
+        &a.out.join("table2.md"),
+        format!("{head}{table}").as_bytes(),
+    )?;
     engine::outfile::write_bytes(&a.out.join("frames.csv"), csv.as_bytes())?;
     if a.psnr_every > 0 {
         print!("PSNR (dB) of Ext. frames vs the full-resolution mesh:\n{psnr}");

@@ -219,6 +219,9 @@ pub enum FormatError {
     Invalid(#[from] ValidationError),
     #[error("scene too large for the format: {0}")]
     TooLarge(String),
+    /// What the file claims needs more memory than this machine has.
+    #[error("{0}")]
+    TooLargeForMachine(String),
 }
 
 #[cfg(test)]

@@ -42,7 +42,7 @@ impl<S: ByteSource> SceneFile<S> {
         // the machine cannot hold before reading anything.
         let limit = crate::limits::memory_total();
         if header.skeleton_len > limit {
-            return Err(FormatError::TooLarge(format!(
+            return Err(FormatError::TooLargeForMachine(format!(
                 "the skeleton of {} nodes and {} reps needs {}, more than this machine's memory ({})",
                 header.node_count,
                 header.rep_count,
@@ -222,10 +222,11 @@ fn read_records<T: bytemuck::Pod>(
     len: u64,
 ) -> Result<Vec<T>, FormatError> {
     let size = size_of::<T>() as u64;
-    let count = usize::try_from(len / size).map_err(|_| FormatError::TooLarge("records".into()))?;
+    let count = usize::try_from(len / size)
+        .map_err(|_| FormatError::TooLargeForMachine("too many records".into()))?;
     let mut out = Vec::new();
     out.try_reserve_exact(count).map_err(|_| {
-        FormatError::TooLarge(format!(
+        FormatError::TooLargeForMachine(format!(
             "cannot allocate {} for the skeleton",
             crate::limits::human(len)
         ))

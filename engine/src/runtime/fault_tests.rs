@@ -19,7 +19,12 @@ fn poses() -> Vec<Pose> {
     (0..160)
         .map(|i| {
             let t = i as f32 / 160.0;
-            pose(2.0 + 40.0 * t, 0.5, 0.5 + 3.0 * (t * 9.0).sin(), (i % 40) as f32 * 0.08)
+            pose(
+                2.0 + 40.0 * t,
+                0.5,
+                0.5 + 3.0 * (t * 9.0).sin(),
+                (i % 40) as f32 * 0.08,
+            )
         })
         .collect()
 }
@@ -39,8 +44,7 @@ fn walk_all(skel: &Arc<Skeleton>, src: impl Fn() -> Arc<dyn ByteSource>) -> Vec<
         .into_iter()
         .map(|mode| {
             let mut walk = Walkthrough::start(skel.clone(), src(), params(mode, budget)).unwrap();
-            let frames =
-                run_path(&mut walk, &poses(), &mut NoneRenderer::new(0.0), 0.0).unwrap();
+            let frames = run_path(&mut walk, &poses(), &mut NoneRenderer::new(0.0), 0.0).unwrap();
             check_frames(&frames, budget);
             frames
         })

@@ -248,8 +248,9 @@ impl Loader {
                     let expect = period.max(self.fetch_interval_s);
                     // 1 % early: frame pacing wakes P_R a little late, not
                     // early (reads are timed per read, with their own margin).
-                    self.next_fetch =
-                        (period > 0.0).then(|| crate::limits::after(now, expect * 0.99)).flatten();
+                    self.next_fetch = (period > 0.0)
+                        .then(|| crate::limits::after(now, expect * 0.99))
+                        .flatten();
                     if self.fetch(&front).is_err() {
                         return;
                     }

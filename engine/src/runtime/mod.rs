@@ -18,11 +18,11 @@
 //!
 //! The two threads talk over bounded `crossbeam-channel`s only.
 
+#[cfg(test)]
+mod fault_tests;
 mod loader;
 #[cfg(test)]
 mod tests;
-#[cfg(test)]
-mod fault_tests;
 mod trees;
 
 use std::sync::Arc;

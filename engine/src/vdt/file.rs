@@ -109,7 +109,10 @@ pub fn flat_len(leaves: u64, nodes: u64, adjacency: u64, roots: u64) -> u64 {
     [
         nodes.saturating_mul(NODE_ENTRY),
         leaves.saturating_mul(12),
-        nodes.saturating_sub(leaves).saturating_add(1).saturating_mul(4),
+        nodes
+            .saturating_sub(leaves)
+            .saturating_add(1)
+            .saturating_mul(4),
         adjacency.saturating_mul(TRI_ENTRY),
         roots.saturating_mul(4),
     ]
@@ -268,7 +271,9 @@ impl VdtFile {
             let kids_ok = r.child_count == 0
                 || (u64::from(r.first_child) + u64::from(r.child_count) <= metas
                     && r.first_child as usize > i);
-            if r.offset.checked_add(u64::from(r.len)).is_none_or(|e| e > h.data_len)
+            if r.offset
+                .checked_add(u64::from(r.len))
+                .is_none_or(|e| e > h.data_len)
                 || r.len > h.max_meta_bytes
                 || !kids_ok
             {

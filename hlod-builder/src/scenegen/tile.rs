@@ -95,7 +95,8 @@ pub fn write_tiled(
         .iter()
         .map(|o| meshes[o.mesh].tri_count() as u64)
         .sum();
-    let bytes = write_glb(out, &[input], &meshes, &objects).with_context(|| format!("{}", out.display()))?;
+    let bytes = write_glb(out, &[input], &meshes, &objects)
+        .with_context(|| format!("{}", out.display()))?;
     Ok(TileStats {
         objects: objects.len(),
         triangles,

@@ -12,6 +12,7 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
+use engine::SceneFile;
 use engine::camera::{PathKind, Pose, format_path, generate_path, read_path};
 use engine::cli::{in_range, parse_size, size_or_off, zero_or_in};
 use engine::disk::{DiskModel, scene_source};
@@ -22,7 +23,6 @@ use engine::metrics::{CsvStream, Recorder, Summary, TracePoint, summary_table, v
 use engine::outfile::write_bytes;
 use engine::render::{NoneRenderer, Renderer};
 use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path_each};
-use engine::SceneFile;
 use glam::Vec3;
 
 #[derive(Parser, Debug)]
@@ -36,9 +36,14 @@ struct Args {
     /// Camera path file (default: the scene's generated fly-through).
     #[arg(long)]
     path: Option<PathBuf>,
-    /// Generated path when no --path: flythrough, approach, orbit or approach-orbit.
+    /// Generated path when no --path: flythrough, approach, orbit,
+    /// approach-orbit or random (a hostile random walk with jumps, for soak
+    /// runs; see --seed).
     #[arg(long, default_value = "flythrough")]
     path_kind: String,
+    /// Seed of the random path.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
     /// Frames of a generated path.
     #[arg(long, default_value_t = 600, value_parser = in_range(1usize, 1_000_000))]
     frames: usize,
@@ -203,7 +208,10 @@ fn run(a: Args) -> Result<()> {
                 "approach" => PathKind::Approach,
                 "orbit" => PathKind::Orbit,
                 "approach-orbit" => PathKind::ApproachOrbit,
-                k => bail!("--path-kind {k:?}: use flythrough, approach, orbit or approach-orbit"),
+                "random" => PathKind::Random { seed: a.seed },
+                k => bail!(
+                    "--path-kind {k:?}: use flythrough, approach, orbit, approach-orbit or random"
+                ),
             };
             generate_path(kind, min, max, a.frames)
         }
@@ -339,7 +347,13 @@ fn run(a: Args) -> Result<()> {
             over += usize::from(over_budget(&f));
             Ok(())
         };
-        run_path_each(&mut walk, &poses[..a.warmup.min(1)], renderer, a.fps, &mut warm_each)?;
+        run_path_each(
+            &mut walk,
+            &poses[..a.warmup.min(1)],
+            renderer,
+            a.fps,
+            &mut warm_each,
+        )?;
         let rest = vec![poses[0]; a.warmup.saturating_sub(1)];
         run_path_each(&mut walk, &rest, renderer, a.fps, &mut warm_each)?;
         let start_ms = t0.elapsed().as_secs_f64() * 1e3;
