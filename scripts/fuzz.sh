@@ -8,6 +8,7 @@
 #
 #   bash scripts/fuzz.sh [RUNS]            all four targets, one after another
 #   TARGETS="gltf_import" bash scripts/fuzz.sh 100000
+#   SEED=1 bash scripts/fuzz.sh 20000      reproducible (test.sh's smoke run)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${1:-10000000}
@@ -25,7 +26,7 @@ for t in $targets; do
   set +e
   cargo +nightly fuzz run --fuzz-dir tests/fuzz "$t" "$corpus" "tests/fuzz/seeds/$t" -- \
     -runs="$runs" -max_len=65536 -rss_limit_mb=2048 -malloc_limit_mb=2048 -timeout=10 \
-    -print_final_stats=1 2>&1 | tee "target/fuzz-logs/$t.log" |
+    -print_final_stats=1 ${SEED:+-seed=$SEED} 2>&1 | tee "target/fuzz-logs/$t.log" |
     grep -E "^(#[0-9]+ +(DONE|INITED)|stat::number_of_executed_units|==[0-9]+==|SUMMARY|panicked)"
   status=${PIPESTATUS[0]}
   set -e

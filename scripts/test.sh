@@ -23,7 +23,7 @@ cargo test --workspace
 # the full campaign). Without nightly it is skipped, and said; the targets'
 # seeds and regression inputs still run in `cargo test` above.
 if cargo +nightly --version >/dev/null 2>&1; then
-  bash scripts/fuzz.sh 20000
+  SEED=1 bash scripts/fuzz.sh 20000
 else
   echo "test: no nightly toolchain: fuzz smoke run skipped (seeds and regressions ran in cargo test)"
 fi

@@ -292,19 +292,29 @@ pub struct CsvStream {
 }
 
 impl CsvStream {
-    /// Starts the CSV at `path`.
+    /// Starts the per-frame CSV ([`CSV_HEADER`]) at `path`.
     pub fn create(path: &std::path::Path) -> std::io::Result<Self> {
-        use std::io::Write;
+        Self::with_header(path, CSV_HEADER)
+    }
+
+    /// Starts a CSV with another `header` (a line without its newline).
+    pub fn with_header(path: &std::path::Path, header: &str) -> std::io::Result<Self> {
         let out = crate::outfile::OutputFile::create(path, &[])?;
-        let mut w = std::io::BufWriter::with_capacity(1 << 16, out.file().try_clone()?);
-        writeln!(w, "{CSV_HEADER}")?;
-        Ok(Self { out, w })
+        let w = std::io::BufWriter::with_capacity(1 << 16, out.file().try_clone()?);
+        let mut s = Self { out, w };
+        s.line(header)?;
+        Ok(s)
     }
 
     /// Writes one frame's row.
     pub fn push(&mut self, f: &FrameMetrics) -> std::io::Result<()> {
+        self.line(&f.csv_row())
+    }
+
+    /// Writes one line (without its newline).
+    pub fn line(&mut self, row: &str) -> std::io::Result<()> {
         use std::io::Write;
-        writeln!(self.w, "{}", f.csv_row())
+        writeln!(self.w, "{row}")
     }
 
     /// Flushes and puts the file in place.

@@ -85,8 +85,7 @@ struct App {
     /// The run's per-frame CSV (`--csv`), written as the frames come, and
     /// the loop times beside it.
     run_csv: Option<CsvStream>,
-    loop_csv: Option<std::io::BufWriter<std::fs::File>>,
-    loop_out: Option<engine::outfile::OutputFile>,
+    loop_csv: Option<CsvStream>,
     frames: u64,
     last: Instant,
     screenshot_to: Option<PathBuf>,
@@ -131,7 +130,6 @@ impl App {
             recording,
             run_csv: None,
             loop_csv: None,
-            loop_out: None,
             frames: 0,
             last: Instant::now(),
             screenshot_to: None,
@@ -368,25 +366,19 @@ impl App {
     /// Streams one frame to `--csv` and its `-loop.csv` (opened at the
     /// first frame).
     fn log_frame(&mut self, m: &engine::metrics::FrameMetrics, loop_ms: f64) -> Result<()> {
-        use std::io::Write;
         let Some(csv) = &self.args.csv else {
             return Ok(());
         };
         if self.run_csv.is_none() {
-            self.run_csv = Some(CsvStream::create(csv).with_context(|| csv.display().to_string())?);
-            let stem = csv.with_extension("");
-            let loop_path = PathBuf::from(format!("{}-loop.csv", stem.display()));
-            let out = engine::outfile::OutputFile::create(&loop_path, &[])?;
-            let mut w = std::io::BufWriter::new(out.file().try_clone()?);
-            writeln!(w, "frame,loop_ms")?;
-            self.loop_csv = Some(w);
-            self.loop_out = Some(out);
+            let named = || csv.display().to_string();
+            let loop_path = PathBuf::from(format!("{}-loop.csv", csv.with_extension("").display()));
+            self.run_csv = Some(CsvStream::create(csv).with_context(named)?);
+            self.loop_csv =
+                Some(CsvStream::with_header(&loop_path, "frame,loop_ms").with_context(named)?);
         }
-        if let Some(c) = &mut self.run_csv {
+        if let (Some(c), Some(l)) = (&mut self.run_csv, &mut self.loop_csv) {
             c.push(m)?;
-        }
-        if let Some(w) = &mut self.loop_csv {
-            writeln!(w, "{},{loop_ms:.3}", m.frame)?;
+            l.line(&format!("{},{loop_ms:.3}", m.frame))?;
         }
         Ok(())
     }
@@ -426,10 +418,8 @@ impl App {
         if let Some(csv) = self.run_csv.take() {
             csv.finish().context("--csv")?;
         }
-        if let (Some(mut w), Some(out)) = (self.loop_csv.take(), self.loop_out.take()) {
-            std::io::Write::flush(&mut w).context("--csv")?;
-            drop(w);
-            out.commit().context("--csv")?;
+        if let Some(csv) = self.loop_csv.take() {
+            csv.finish().context("--csv")?;
         }
         // Drop the walkthrough (joins P_I) before the window goes.
         self.session = None;

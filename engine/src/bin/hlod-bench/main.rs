@@ -197,6 +197,17 @@ fn run(a: Args) -> Result<()> {
             .collect::<Result<_>>()?,
         None => vec![engine::cli::parse_budget(&a.budget, data_bytes)?],
     };
+    let mut seen = std::collections::BTreeSet::new();
+    let budgets: Vec<u64> = budgets
+        .into_iter()
+        .filter(|b| {
+            let new = seen.insert(*b);
+            if !new {
+                eprintln!("--budgets: {b} bytes given twice, run once");
+            }
+            new
+        })
+        .collect();
     let budget = budgets[0];
     let root = &skel.nodes[0];
     let (min, max) = (Vec3::from(root.bbox_min), Vec3::from(root.bbox_max));
@@ -285,6 +296,17 @@ fn run(a: Args) -> Result<()> {
         if mode == Mode::Incore && k > 0 {
             continue; // independent of the footprint
         }
+        // Every sweep point's files have a name of their own (two budgets
+        // that round to the same MiB get their bytes in the name).
+        let mut tag = if budgets.len() > 1 && mode != Mode::Incore {
+            format!("{}-{:.2}MiB", mode.name(), budget as f64 / 1048576.0)
+        } else {
+            mode.name().to_string()
+        };
+        if tags.contains(&tag) {
+            tag = format!("{}-{budget}B", mode.name());
+        }
+        tags.insert(tag.clone());
         let model = if mode == Mode::Incore { None } else { disk };
         let source = scene_source(file.try_clone()?, model).with_context(|| scene_name.clone())?;
         let params = RuntimeParams {
@@ -322,19 +344,6 @@ fn run(a: Args) -> Result<()> {
             Some(r) => r,
             None => &mut none_r,
         };
-        // Every sweep point's files have a name of their own (two budgets
-        // that round to the same MiB get their bytes in the name).
-        let mut tag = if budgets.len() > 1 && mode != Mode::Incore {
-            format!("{}-{:.2}MiB", mode.name(), budget as f64 / 1048576.0)
-        } else {
-            mode.name().to_string()
-        };
-        if tags.contains(&tag) {
-            tag = format!("{}-{budget}B", mode.name());
-        }
-        if !tags.insert(tag.clone()) {
-            continue; // the same budget twice in the list
-        }
         let over_budget = |f: &engine::metrics::FrameMetrics| {
             mode != Mode::Incore && (f.max_resident_bytes > budget || f.gpu_bytes > budget)
         };
