@@ -128,7 +128,7 @@ pub fn read_bounded(path: &Path, max: u64) -> io::Result<Vec<u8>> {
     Ok(out)
 }
 
-/// `bytes` with a binary unit (`12.3 MiB`).
+/// `bytes` with a binary unit (`12.34 MiB`).
 pub fn human(bytes: u64) -> String {
     const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
     let mut v = bytes as f64;
@@ -140,7 +140,7 @@ pub fn human(bytes: u64) -> String {
     if u == 0 {
         format!("{bytes} B")
     } else {
-        format!("{v:.1} {}", UNITS[u])
+        format!("{v:.2} {}", UNITS[u])
     }
 }
 

@@ -252,6 +252,12 @@ impl Recorder {
         &self.trace
     }
 
+    /// The kept frames, the recorder done with (no copy).
+    pub fn into_trace(mut self) -> Vec<TracePoint> {
+        self.trace.shrink_to_fit();
+        self.trace
+    }
+
     /// The summary against the frame period `period_ms`.
     pub fn summary(&self, period_ms: f64) -> Summary {
         let t: Vec<f64> = self.trace.iter().map(|p| p.frame_ms).collect();

@@ -75,9 +75,14 @@ impl OutputFile {
         };
         remove_stale(dir);
         install_signal_cleanup();
-        let name = target
+        // The target's name, shortened so that the temporary name stays
+        // within a file system's 255 bytes.
+        let name: String = target
             .file_name()
-            .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+            .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned())
+            .chars()
+            .take(50)
+            .collect();
         let tmp = tempfile::Builder::new()
             .prefix(&format!(".{name}."))
             .suffix(TEMP_SUFFIX)

@@ -420,7 +420,7 @@ fn run(a: Args) -> Result<()> {
         }
         rows.push(rec.summary(period_ms));
         eprintln!("{tag}: done ({})", memory_note());
-        done.push((mode, budget, rec.trace().to_vec()));
+        done.push((mode, budget, rec.into_trace()));
     }
     let mut table = summary_table(&rows);
     if skel.reps.iter().any(|r| r.is_vdt()) {
