@@ -73,7 +73,7 @@ impl OutputFile {
             path: target.clone(),
             source,
         };
-        remove_stale(dir);
+        sweep_once(dir);
         install_signal_cleanup();
         // The target's name, shortened so that the temporary name stays
         // within a file system's 255 bytes.
@@ -286,6 +286,18 @@ fn kind_of(meta: &std::fs::Metadata) -> &'static str {
         }
     }
     "not a regular file"
+}
+
+/// [`remove_stale`] the first time this process writes into `dir` (a run
+/// writing hundreds of files into one folder lists it once).
+fn sweep_once(dir: &Path) {
+    static SWEPT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+    let key = std::fs::canonicalize(dir).unwrap_or_else(|_| dir.to_path_buf());
+    let mut swept = SWEPT.lock().unwrap_or_else(|e| e.into_inner());
+    if !swept.contains(&key) {
+        swept.push(key);
+        remove_stale(dir);
+    }
 }
 
 /// Removes temporary outputs in `dir` whose writer is gone (their lock can

@@ -356,6 +356,9 @@ fn vdt_report(
     if !(64..=1 << 24).contains(&block) {
         anyhow::bail!("--block must be in 64..=16777216 bytes");
     }
+    if let Some(out) = output {
+        engine::outfile::check_output(out, &[input])?;
+    }
     let levels = meta::levels_for_block(block);
     let metric = match metric {
         "quadric" => Metric::Quadric,
