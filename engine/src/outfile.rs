@@ -324,7 +324,7 @@ pub fn remove_stale(dir: &Path) -> usize {
 }
 
 /// Gives a finished output the usual 0644 mode (temporary files are 0600).
-pub fn set_public_mode(file: &File) -> io::Result<()> {
+fn set_public_mode(file: &File) -> io::Result<()> {
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;

@@ -90,7 +90,7 @@ pub fn relayout_file(
         path: input.to_path_buf(),
         source,
     })?;
-    crate::scenegen::glb::write_atomically(output, &[input], |w| {
+    engine::outfile::write_with(output, &[input], |w| {
         relayout(&src, w).map(|_| ()).map_err(std::io::Error::other)
     })
     .map_err(|source| crate::BuildError::Io {

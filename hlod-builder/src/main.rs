@@ -341,7 +341,7 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
 /// Writes `bytes` to `out` under the output-file policy (never over `input`).
 fn write_vdt(out: &std::path::Path, input: &std::path::Path, bytes: &[u8]) -> Result<()> {
     use std::io::Write;
-    hlod_builder::scenegen::glb::write_atomically(out, &[input], |w| w.write_all(bytes))
+    engine::outfile::write_with(out, &[input], |w| w.write_all(bytes))
         .with_context(|| format!("cannot write {}", out.display()))
 }
 

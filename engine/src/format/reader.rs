@@ -200,17 +200,30 @@ pub fn check_rep_crc(rep: RepId, rec: &RepRecord, bytes: &[u8]) -> Result<(), Fo
 /// Bytes read at once while checking or decoding the skeleton.
 const CHUNK: u64 = 1 << 20;
 
+/// Calls `f` with the `len` bytes at `offset`, read `chunk` bytes at a time
+/// into one buffer.
+fn for_each_chunk(
+    source: &impl ByteSource,
+    offset: u64,
+    len: u64,
+    chunk: u64,
+    mut f: impl FnMut(&[u8]),
+) -> Result<(), FormatError> {
+    let mut buf = vec![0u8; chunk.min(len) as usize];
+    let mut at = 0;
+    while at < len {
+        let n = (len - at).min(chunk) as usize;
+        source.read_at(offset + at, &mut buf[..n])?;
+        f(&buf[..n]);
+        at += n as u64;
+    }
+    Ok(())
+}
+
 /// CRC-32 of `len` bytes at `offset`, read a chunk at a time.
 fn chunked_crc(source: &impl ByteSource, offset: u64, len: u64) -> Result<u32, FormatError> {
     let mut h = crc32fast::Hasher::new();
-    let mut buf = vec![0u8; CHUNK.min(len) as usize];
-    let mut at = 0;
-    while at < len {
-        let n = (len - at).min(CHUNK) as usize;
-        source.read_at(offset + at, &mut buf[..n])?;
-        h.update(&buf[..n]);
-        at += n as u64;
-    }
+    for_each_chunk(source, offset, len, CHUNK, |b| h.update(b))?;
     Ok(h.finalize())
 }
 
@@ -231,19 +244,13 @@ fn read_records<T: bytemuck::Pod>(
             crate::limits::human(len)
         ))
     })?;
-    let per_chunk = CHUNK / size * size;
-    let mut buf = vec![0u8; per_chunk.min(len) as usize];
-    let mut at = 0;
-    while at < len {
-        let n = (len - at).min(per_chunk) as usize;
-        source.read_at(offset + at, &mut buf[..n])?;
+    // Whole records per chunk.
+    for_each_chunk(source, offset, len, CHUNK / size * size, |b| {
         out.extend(
-            buf[..n]
-                .chunks_exact(size as usize)
+            b.chunks_exact(size as usize)
                 .map(bytemuck::pod_read_unaligned::<T>),
         );
-        at += n as u64;
-    }
+    })?;
     Ok(out)
 }
 

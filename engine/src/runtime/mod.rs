@@ -619,33 +619,33 @@ pub fn run_path(
     let mut out = Vec::with_capacity(poses.len());
     run_path_each(walk, poses, renderer, fps, |m| {
         out.push(m);
-        Ok(())
+        Ok::<(), std::convert::Infallible>(())
     })
     .map_err(|e| match e {
         PathRunError::Runtime(e) => e,
-        PathRunError::Sink(_) => unreachable!("the collecting sink never fails"),
+        PathRunError::Sink(never) => match never {},
     })?;
     Ok(out)
 }
 
-/// Why [`run_path_each`] stopped.
+/// Why [`run_path_each`] stopped: the runtime, or the sink's error `E`.
 #[derive(Debug, thiserror::Error)]
-pub enum PathRunError {
+pub enum PathRunError<E: std::error::Error + 'static> {
     #[error(transparent)]
     Runtime(#[from] RuntimeError),
     #[error(transparent)]
-    Sink(std::io::Error),
+    Sink(E),
 }
 
 /// [`run_path`], handing each frame's metrics to `each` as it ends instead
 /// of keeping them (a long run's memory does not grow with its frames).
-pub fn run_path_each(
+pub fn run_path_each<E: std::error::Error + 'static>(
     walk: &mut Walkthrough,
     poses: &[Pose],
     renderer: &mut dyn Renderer,
     fps: f32,
-    mut each: impl FnMut(FrameMetrics) -> std::io::Result<()>,
-) -> Result<(), PathRunError> {
+    mut each: impl FnMut(FrameMetrics) -> Result<(), E>,
+) -> Result<(), PathRunError<E>> {
     let period = if fps > 0.0 {
         crate::limits::duration_s(1.0 / f64::from(fps))
     } else {

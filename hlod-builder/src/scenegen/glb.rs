@@ -5,8 +5,7 @@
 //! so meshes placed many times are instanced.
 
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::Path;
 
 use glam::Mat4;
@@ -177,17 +176,5 @@ pub fn write_glb(
     meshes: &[Mesh],
     objects: &[GlbObject],
 ) -> std::io::Result<u64> {
-    write_atomically(path, inputs, |w| write_glb_to(w, meshes, objects))
-}
-
-/// Writes a file under the workspace's output-file policy
-/// ([`engine::outfile`]): through a temporary file beside it and a rename, so
-/// that the target appears complete or not at all; never over a device, a
-/// link's name or one of `inputs`.
-pub fn write_atomically<T>(
-    path: &Path,
-    inputs: &[&Path],
-    fill: impl FnOnce(&mut BufWriter<&File>) -> std::io::Result<T>,
-) -> std::io::Result<T> {
-    engine::outfile::write_with(path, inputs, fill)
+    engine::outfile::write_with(path, inputs, |w| write_glb_to(w, meshes, objects))
 }

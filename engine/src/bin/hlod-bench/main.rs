@@ -354,7 +354,7 @@ fn run(a: Args) -> Result<()> {
         let mut warm_each = |f: engine::metrics::FrameMetrics| {
             warm_read += f.stage2_bytes + f.prefetch_bytes;
             over += usize::from(over_budget(&f));
-            Ok(())
+            Ok::<(), std::io::Error>(())
         };
         run_path_each(
             &mut walk,
