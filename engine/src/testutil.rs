@@ -25,6 +25,17 @@ pub fn quad(min: [f32; 3], max: [f32; 3]) -> RepMesh {
 /// Builds a scene from a shape: `rep_counts[i]` reps for node `i`, `children[i]`
 /// the child count of node `i` (breadth-first). Leaf `k` spans `x in [k, k+1]`.
 pub fn build(rep_counts: &[u32], children: &[u32]) -> (Vec<u8>, Skeleton) {
+    build_with(rep_counts, children, [0.0; 3], &[])
+}
+
+/// [`build`] with an origin and an object section; when the section is not
+/// empty, leaf `k` names object `k`.
+pub fn build_with(
+    rep_counts: &[u32],
+    children: &[u32],
+    origin: [f64; 3],
+    objects: &[u8],
+) -> (Vec<u8>, Skeleton) {
     assert_eq!(rep_counts.len(), children.len());
     let n = rep_counts.len();
     let mut nodes = vec![NodeRecord::default(); n];
@@ -48,6 +59,9 @@ pub fn build(rep_counts: &[u32], children: &[u32]) -> (Vec<u8>, Skeleton) {
         if nodes[i].child_count == 0 {
             nodes[i].bbox_min = [leaf, 0.0, 0.0];
             nodes[i].bbox_max = [leaf + 1.0, 1.0, 1.0];
+            if !objects.is_empty() {
+                nodes[i].object = leaf as u32;
+            }
             leaf += 1.0;
         }
     }
@@ -100,8 +114,12 @@ pub fn build(rep_counts: &[u32], children: &[u32]) -> (Vec<u8>, Skeleton) {
     let meta = SceneMeta {
         object_count: leaf as u32,
         input_triangles: 2 * leaf as u64,
+        origin,
     };
-    let bytes = writer.finish(&skeleton, &meta).unwrap().into_inner();
+    let bytes = writer
+        .finish_with_objects(&skeleton, &meta, objects)
+        .unwrap()
+        .into_inner();
     (bytes, skeleton)
 }
 

@@ -67,6 +67,7 @@ fn write_scene(path: &Path) {
         &SceneMeta {
             object_count: 2,
             input_triangles: 2,
+            ..Default::default()
         },
     )
     .unwrap();

@@ -15,6 +15,7 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use engine::format::objects::{ObjectTable, Run};
 use engine::format::{NONE, NodeRecord, RepKind, RepMesh, RepRecord, SceneMeta, SceneWriter};
 use engine::{FormatError, Skeleton};
 use glam::{Mat3, Mat4};
@@ -23,7 +24,7 @@ use rayon::prelude::*;
 
 use crate::cluster::{ClusterItem, cluster};
 use crate::import::{self, ImportError, Imported};
-use crate::lod::{LodParams, hlod, lod_chain, strictly_above};
+use crate::lod::{LodParams, hlod, lod_chain, lod_chain_from, optimize, strictly_above};
 use crate::mesh::{Aabb, Mesh};
 
 /// Parameters of a build.
@@ -145,6 +146,10 @@ pub struct BuildStats {
     pub file_bytes: u64,
     pub seconds: f64,
     pub warnings: Vec<String>,
+    /// World position of the scene's origin.
+    pub origin: [f64; 3],
+    /// Bytes of the object section (names, extras, merged leaves' runs).
+    pub object_bytes: u64,
 }
 
 /// A leaf item: one instance, or one chunk of a large object.
@@ -184,6 +189,10 @@ pub fn build_file(
     // is refused before any work.
     let out = engine::outfile::OutputFile::create(output, &[input])?;
     let imported = import::load(input)?;
+    // Every import warning is shown now, whatever becomes of the build.
+    for w in &imported.warnings {
+        tracing::warn!("{}: {w}", input.display());
+    }
     let io_err = |source| BuildError::Io {
         path: output.to_path_buf(),
         source,
@@ -262,8 +271,10 @@ fn build_in_make_order<W: Write + std::io::Seek>(
         input_triangles: imported.instanced_source_triangles(),
         usable_triangles: imported.instanced_triangles(),
         warnings: imported.warnings.clone(),
+        origin: imported.origin,
         ..Default::default()
     };
+    let mut leaf_runs: Vec<(u32, Vec<Run>)> = Vec::new();
     // 1. Items.
     let mut items = Vec::new();
     let mut cluster_items = Vec::new();
@@ -377,7 +388,10 @@ fn build_in_make_order<W: Write + std::io::Seek>(
             .par_iter()
             .map(|&i| leaf_levels(&tree[i].items, &items, imported, params, &chain_of))
             .collect();
-        for (&i, (levels, vdt)) in batch.iter().zip(made) {
+        for (&i, (levels, vdt, runs)) in batch.iter().zip(made) {
+            if let Some(r) = runs {
+                leaf_runs.push((i as u32, r));
+            }
             let objects: Vec<u32> = tree[i]
                 .items
                 .iter()
@@ -475,8 +489,11 @@ fn build_in_make_order<W: Write + std::io::Seek>(
     let meta = SceneMeta {
         object_count: stats.objects as u32,
         input_triangles: stats.input_triangles,
+        origin: imported.origin,
     };
-    let mut sink = writer.finish(&skeleton, &meta)?;
+    let objects = ObjectTable::encode(&object_infos(imported), &leaf_runs);
+    stats.object_bytes = objects.len() as u64;
+    let mut sink = writer.finish_with_objects(&skeleton, &meta, &objects)?;
     sink.flush()?;
     stats.nodes = skeleton.nodes.len() as u64;
     stats.height = skeleton.height();
@@ -496,8 +513,34 @@ fn item_object(item: &Item) -> u32 {
     }
 }
 
-/// A leaf's static LODs (coarsest first) and its view-dependence tree.
-type LeafGeometry = (Vec<crate::lod::Level>, Option<crate::vdt::TreeRep>);
+/// Each object's JSON text for the object section: names, extras, and its
+/// world-space box (scene box plus origin).
+fn object_infos(imported: &Imported) -> Vec<String> {
+    let o = glam::DVec3::from(imported.origin);
+    imported
+        .instances
+        .iter()
+        .enumerate()
+        .map(|(k, inst)| {
+            let mut v = imported.object_info(k);
+            if let (Some(m), serde_json::Value::Object(map)) = (&imported.meshes[inst.mesh], &mut v) {
+                let b = transformed_bounds(m.bounds(), &inst.transform);
+                let w = |p: glam::Vec3| (p.as_dvec3() + o).to_array().to_vec();
+                map.insert("box_min".into(), w(b.min).into());
+                map.insert("box_max".into(), w(b.max).into());
+            }
+            v.to_string()
+        })
+        .collect()
+}
+
+/// A leaf's static LODs (coarsest first), its view-dependence tree, and
+/// for a merged leaf the object of each run of its finest rep's triangles.
+type LeafGeometry = (
+    Vec<crate::lod::Level>,
+    Option<crate::vdt::TreeRep>,
+    Option<Vec<Run>>,
+);
 
 /// The LOD chain of a leaf, in world space, coarsest first, and the tree of
 /// a large object.
@@ -532,17 +575,18 @@ fn leaf_levels<'a>(
                         error: l.error * scale,
                     })
                     .collect();
-                return (levels, None);
+                return (levels, None, None);
             }
             Item::Chunk { mesh, .. } => {
                 let lod = LodParams {
                     lock_border: true,
                     ..params.lod
                 };
-                return (lod_chain(mesh, &lod), None);
+                return (lod_chain(mesh, &lod), None, None);
             }
             Item::Tree { mesh, .. } => {
-                return crate::vdt::tree_levels(mesh, &params.lod, params.vdt_keep);
+                let (levels, tree) = crate::vdt::tree_levels(mesh, &params.lod, params.vdt_keep);
+                return (levels, tree, None);
             }
         }
     }
@@ -558,7 +602,24 @@ fn leaf_levels<'a>(
             Item::Chunk { mesh, .. } | Item::Tree { mesh, .. } => mesh.clone(),
         })
         .collect();
-    (lod_chain(&Mesh::merge(&parts), &params.lod), None)
+    // Each object optimised on its own, so that its triangles stay one run
+    // of the finest rep (what picking resolves a merged leaf's hit by).
+    let optimized: Vec<Mesh> = parts.iter().map(optimize).collect();
+    let mut runs: Vec<Run> = Vec::new();
+    let mut end = 0u32;
+    for (&k, m) in leaf_items.iter().zip(&optimized) {
+        end += m.tri_count() as u32;
+        let object = item_object(&items[k as usize]);
+        match runs.last_mut() {
+            Some(r) if r.object == object => r.tri_end = end,
+            _ => runs.push(Run { object, tri_end: end }),
+        }
+    }
+    (
+        lod_chain_from(Mesh::merge(&optimized), &params.lod),
+        None,
+        Some(runs),
+    )
 }
 
 /// Writes a node's levels (coarsest first); `floor` is an error every rep must

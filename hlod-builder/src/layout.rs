@@ -78,7 +78,7 @@ pub fn relayout<S: ByteSource, W: Write + Seek>(
         src.source().read_at(rec.offset, &mut buf)?;
         rec.offset = writer.write_rep(&buf)?.offset;
     }
-    writer.finish(&skeleton, &src.meta())
+    writer.finish_with_objects(&skeleton, &src.meta(), &src.read_objects_bytes()?)
 }
 
 /// [`relayout`] from file `input` to file `output`, written atomically.

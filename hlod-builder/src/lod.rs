@@ -99,8 +99,14 @@ pub fn simplify(
 /// The LOD chain of `mesh`, coarsest first, the (optimised) original last with
 /// error 0. Errors strictly decrease from coarse to fine.
 pub fn lod_chain(mesh: &Mesh, p: &LodParams) -> Vec<Level> {
+    lod_chain_from(optimize(mesh), p)
+}
+
+/// [`lod_chain`] whose finest level is `finest` as given (already
+/// optimised; its triangle order is kept).
+pub fn lod_chain_from(finest: Mesh, p: &LodParams) -> Vec<Level> {
     let mut levels = vec![Level {
-        mesh: optimize(mesh),
+        mesh: finest,
         error: 0.0,
     }];
     while levels.len() < p.max_levels {

@@ -244,13 +244,8 @@ fn build(a: BuildArgs) -> Result<()> {
         },
     };
     let show = !a.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr());
+    // Import warnings are printed by the build as soon as they are known.
     let stats = build_file(&a.input, &a.output, &params, show)?;
-    for w in stats.warnings.iter().take(20) {
-        tracing::warn!("{}: {w}", a.input.display());
-    }
-    if stats.warnings.len() > 20 {
-        tracing::warn!("... {} more warnings", stats.warnings.len() - 20);
-    }
     let name = a
         .input
         .file_name()
@@ -294,6 +289,18 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
         s.reps
             .get(root.first_rep as usize)
             .map_or(f32::NAN, |r| r.error)
+    );
+    let o = scene.meta().origin;
+    println!(
+        "origin {} {} {} (world position of the scene's coordinates; {} in the object section)",
+        o[0],
+        o[1],
+        o[2],
+        match scene.read_objects() {
+            Ok(t) if t.is_empty() => "no objects described".to_string(),
+            Ok(t) => format!("{} objects described", t.len()),
+            Err(e) => format!("unreadable: {e}"),
+        }
     );
     println!(
         "validate(): ok (structure, error monotonicity, boxes, byte ranges, checksums of header and skeleton)"

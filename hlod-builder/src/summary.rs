@@ -31,6 +31,8 @@ pub fn stats_of<S: ByteSource>(scene: &SceneFile<S>) -> BuildStats {
         file_bytes: h.file_len,
         seconds: f64::NAN,
         warnings: Vec::new(),
+        origin: h.origin,
+        object_bytes: h.objects_len,
     }
 }
 

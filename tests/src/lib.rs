@@ -1,6 +1,8 @@
 //! End-to-end tests of the builder and the scene format; the tests live in
 //! `tests/tests/`. This library holds their shared helpers.
 
+pub mod conformance;
+
 use std::path::PathBuf;
 
 /// The repository's `tests/data` directory.

@@ -60,7 +60,10 @@ fn accessor_out_of_range() {
         "oob.gltf",
         tiny_gltf(&p, &i, 4, Some(p.len() + 50)).as_bytes(),
     );
-    assert!(e.to_string().contains("out of range"), "{e}");
+    let msg = e.to_string();
+    assert!(msg.contains("out of range"), "{e}");
+    // The file and the glTF part, once.
+    assert!(msg.contains("oob.gltf") && msg.contains("meshes[0].primitives[0]") && msg.contains("accessors[0]"), "{e}");
 }
 
 #[test]

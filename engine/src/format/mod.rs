@@ -1,13 +1,17 @@
-//! The versioned on-disk scene format (version 1).
+//! The versioned on-disk scene format (version 2; version 1 is still read).
 //!
 //! ```text
-//! offset 0      FileHeader (128 B), zero-padded to BLOCK
+//! offset 0      FileHeader (192 B; 128 B in version 1), zero-padded to BLOCK
 //! BLOCK         rep payloads, each starting on a BLOCK boundary, zero-padded
 //! data end      skeleton: [NodeRecord; node_count] [RepRecord; rep_count]
+//! skeleton end  object section (version 2, may be empty): names and extras
+//!               of the source objects, for picking (see [`objects`])
 //! ```
 //!
-//! The header carries the magic, the version, the section ranges and two CRC-32s
-//! (header and skeleton). Each [`RepRecord`] names its payload's byte range and
+//! The header carries the magic, the version, the section ranges, the world
+//! position of the scene's origin (version 2: coordinates are stored relative
+//! to it in `f32`, so survey-coordinate models keep millimetres) and three
+//! CRC-32s (header, skeleton, object section). Each [`RepRecord`] names its payload's byte range and
 //! CRC-32, so one rep can be read and checked alone, and reading the skeleton
 //! never touches rep data. The skeleton sits after the data so that the builder
 //! streams reps to disk as it makes them; the header is written last.
@@ -15,6 +19,7 @@
 //! All integers are little-endian; every record is `repr(C)` with its size
 //! asserted at compile time.
 
+pub mod objects;
 mod reader;
 mod rep;
 mod writer;
@@ -33,8 +38,10 @@ compile_error!("the scene format is little-endian and this engine reads it by ca
 
 /// File magic: the first eight bytes of every scene file.
 pub const MAGIC: [u8; 8] = *b"OOCHLOD\0";
-/// The format version this build writes and reads.
-pub const VERSION: u32 = 1;
+/// The format version this build writes (and the newest it reads).
+pub const VERSION: u32 = 2;
+/// The oldest version this build reads (no origin, no object section).
+pub const OLDEST_VERSION: u32 = 1;
 /// Alignment of every rep payload and of the data section.
 pub const BLOCK: u64 = 4096;
 /// "No node / no object" marker in `u32` fields.
@@ -66,9 +73,73 @@ pub struct FileHeader {
     pub skeleton_crc: u32,
     /// CRC-32 of this header with this field set to zero.
     pub header_crc: u32,
+    /// World position of the scene's origin: stored coordinates are
+    /// relative to it (version 2; zero for version 1).
+    pub origin: [f64; 3],
+    /// The object section (after the skeleton; length 0 when absent).
+    pub objects_offset: u64,
+    pub objects_len: u64,
+    /// CRC-32 of the object section.
+    pub objects_crc: u32,
+    pub reserved: [u32; 9],
+}
+const _: () = assert!(size_of::<FileHeader>() == 192);
+
+/// The version-1 header: the version-2 one up to `header_crc`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FileHeaderV1 {
+    pub magic: [u8; 8],
+    pub version: u32,
+    pub header_size: u32,
+    pub node_count: u32,
+    pub rep_count: u32,
+    pub object_count: u32,
+    pub flags: u32,
+    pub input_triangles: u64,
+    pub data_offset: u64,
+    pub data_len: u64,
+    pub skeleton_offset: u64,
+    pub skeleton_len: u64,
+    pub file_len: u64,
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
+    pub skeleton_crc: u32,
+    pub header_crc: u32,
     pub reserved: [u32; 4],
 }
-const _: () = assert!(size_of::<FileHeader>() == 128);
+const _: () = assert!(size_of::<FileHeaderV1>() == 128);
+
+impl FileHeaderV1 {
+    /// The same facts in the version-2 layout (origin zero, no object
+    /// section). `header_crc` keeps the version-1 value.
+    pub fn upgrade(&self) -> FileHeader {
+        FileHeader {
+            magic: self.magic,
+            version: self.version,
+            header_size: size_of::<FileHeader>() as u32,
+            node_count: self.node_count,
+            rep_count: self.rep_count,
+            object_count: self.object_count,
+            flags: self.flags,
+            input_triangles: self.input_triangles,
+            data_offset: self.data_offset,
+            data_len: self.data_len,
+            skeleton_offset: self.skeleton_offset,
+            skeleton_len: self.skeleton_len,
+            file_len: self.file_len,
+            bounds_min: self.bounds_min,
+            bounds_max: self.bounds_max,
+            skeleton_crc: self.skeleton_crc,
+            header_crc: self.header_crc,
+            origin: [0.0; 3],
+            objects_offset: self.file_len,
+            objects_len: 0,
+            objects_crc: 0,
+            reserved: [0; 9],
+        }
+    }
+}
 
 /// One scene-graph node. Nodes are stored breadth-first: node 0 is the root and
 /// the children of a node are contiguous.
@@ -197,7 +268,7 @@ pub enum FormatError {
     Io(std::io::Error),
     #[error("not a scene file (bad magic {0:02x?})")]
     BadMagic([u8; 8]),
-    #[error("unsupported format version {found} (this build reads {VERSION})")]
+    #[error("unsupported format version {found} (this build reads {OLDEST_VERSION} to {VERSION}): rebuild the scene with this hlod-build")]
     UnsupportedVersion { found: u32 },
     #[error("file truncated: {what} needs bytes up to {need}, file has {have}")]
     Truncated {

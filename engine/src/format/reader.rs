@@ -4,18 +4,23 @@ use std::mem::size_of;
 use std::path::Path;
 use std::sync::Arc;
 
-use super::{BLOCK, FileHeader, FormatError, MAGIC, NodeRecord, RepMesh, RepRecord, VERSION};
+use super::objects::ObjectTable;
+use super::{
+    BLOCK, FileHeader, FileHeaderV1, FormatError, MAGIC, NodeRecord, RepMesh, RepRecord, VERSION,
+};
 use crate::io::{ByteSource, FileSource, MemSource};
 use crate::skeleton::{RepId, Skeleton};
 use crate::vdt::file::VdtFile;
 
 /// Scene-level facts stored in the header besides the skeleton.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SceneMeta {
     /// Objects (glTF mesh instances) in the source.
     pub object_count: u32,
     /// Source triangles after instancing.
     pub input_triangles: u64,
+    /// World position of the scene's origin (stored coordinates are relative to it).
+    pub origin: [f64; 3],
 }
 
 /// An opened scene: the validated header and skeleton in core, the source kept
@@ -91,7 +96,33 @@ impl<S: ByteSource> SceneFile<S> {
         SceneMeta {
             object_count: self.header.object_count,
             input_triangles: self.header.input_triangles,
+            origin: self.header.origin,
         }
+    }
+
+    /// The raw object section (empty when the file has none), checked
+    /// against its CRC. Never read on the rendering path.
+    pub fn read_objects_bytes(&self) -> Result<Vec<u8>, FormatError> {
+        let h = &self.header;
+        let mut buf = crate::limits::alloc_bytes(h.objects_len, "the object section")
+            .map_err(|e| FormatError::TooLargeForMachine(e.to_string()))?;
+        self.source.read_at(h.objects_offset, &mut buf)?;
+        let computed = crc32fast::hash(&buf);
+        if computed != h.objects_crc {
+            return Err(FormatError::Checksum {
+                what: "object section".into(),
+                stored: h.objects_crc,
+                computed,
+            });
+        }
+        Ok(buf)
+    }
+
+    /// The object section decoded: names and extras of the source
+    /// objects, and which object each triangle of a merged leaf's finest
+    /// rep belongs to. Loaded on demand (for picking), checked.
+    pub fn read_objects(&self) -> Result<ObjectTable, FormatError> {
+        ObjectTable::decode(&self.read_objects_bytes()?, &self.skeleton)
     }
 
     /// The byte source reps are read from.
@@ -256,39 +287,57 @@ fn read_records<T: bytemuck::Pod>(
 
 fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
     let have = source.len();
-    let hsize = size_of::<FileHeader>() as u64;
-    if have < hsize {
-        return Err(FormatError::Truncated {
-            what: "header",
-            need: hsize,
-            have,
-        });
+    let truncated = |need: u64| FormatError::Truncated {
+        what: "header",
+        need,
+        have,
+    };
+    if have < 16 {
+        return Err(truncated(16));
     }
-    let mut buf = [0u8; size_of::<FileHeader>()];
-    source.read_at(0, &mut buf)?;
-    let header: FileHeader = bytemuck::pod_read_unaligned(&buf);
-    if header.magic != MAGIC {
-        return Err(FormatError::BadMagic(header.magic));
+    let mut head = [0u8; 16];
+    source.read_at(0, &mut head)?;
+    let magic: [u8; 8] = head[..8].try_into().expect("8 bytes");
+    if magic != MAGIC {
+        return Err(FormatError::BadMagic(magic));
     }
-    if header.version != VERSION {
-        return Err(FormatError::UnsupportedVersion {
-            found: header.version,
-        });
-    }
-    let mut zeroed = header;
-    zeroed.header_crc = 0;
-    let computed = crc32fast::hash(bytemuck::bytes_of(&zeroed));
-    if computed != header.header_crc {
-        return Err(FormatError::Checksum {
-            what: "header".into(),
-            stored: header.header_crc,
-            computed,
-        });
-    }
+    let version = u32::from_le_bytes(head[8..12].try_into().expect("4 bytes"));
+    let header = match version {
+        1 => {
+            let hsize = size_of::<FileHeaderV1>();
+            if have < hsize as u64 {
+                return Err(truncated(hsize as u64));
+            }
+            let mut buf = vec![0u8; hsize];
+            source.read_at(0, &mut buf)?;
+            let v1: FileHeaderV1 = bytemuck::pod_read_unaligned(&buf);
+            let mut zeroed = v1;
+            zeroed.header_crc = 0;
+            check_header_crc(v1.header_crc, bytemuck::bytes_of(&zeroed))?;
+            if v1.header_size as usize != hsize {
+                return Err(FormatError::BadHeader("header size".into()));
+            }
+            v1.upgrade()
+        }
+        VERSION => {
+            let hsize = size_of::<FileHeader>();
+            if have < hsize as u64 {
+                return Err(truncated(hsize as u64));
+            }
+            let mut buf = vec![0u8; hsize];
+            source.read_at(0, &mut buf)?;
+            let h: FileHeader = bytemuck::pod_read_unaligned(&buf);
+            let mut zeroed = h;
+            zeroed.header_crc = 0;
+            check_header_crc(h.header_crc, bytemuck::bytes_of(&zeroed))?;
+            if h.header_size as usize != hsize {
+                return Err(FormatError::BadHeader("header size".into()));
+            }
+            h
+        }
+        found => return Err(FormatError::UnsupportedVersion { found }),
+    };
     let bad = |s: &str| Err(FormatError::BadHeader(s.to_string()));
-    if header.header_size as u64 != hsize {
-        return bad("header size");
-    }
     if header.file_len > have {
         return Err(FormatError::Truncated {
             what: "file",
@@ -302,12 +351,28 @@ fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
         || header.data_offset.checked_add(header.data_len) != Some(header.skeleton_offset)
         || !header.skeleton_offset.is_multiple_of(BLOCK)
         || header.skeleton_len != records
-        || header.skeleton_offset.checked_add(header.skeleton_len) != Some(header.file_len)
+        || header.skeleton_offset.checked_add(header.skeleton_len) != Some(header.objects_offset)
+        || header.objects_offset.checked_add(header.objects_len) != Some(header.file_len)
     {
         return bad("section ranges are inconsistent");
+    }
+    if !header.origin.iter().all(|c| c.is_finite()) {
+        return bad("origin is not finite");
     }
     if header.file_len != have {
         return bad("file is longer than the header says");
     }
     Ok(header)
+}
+
+fn check_header_crc(stored: u32, zeroed: &[u8]) -> Result<(), FormatError> {
+    let computed = crc32fast::hash(zeroed);
+    if computed != stored {
+        return Err(FormatError::Checksum {
+            what: "header".into(),
+            stored,
+            computed,
+        });
+    }
+    Ok(())
 }

@@ -49,8 +49,8 @@ fn every_truncation_is_a_typed_error() {
 #[test]
 fn every_bit_flip_in_header_and_skeleton_is_detected() {
     let (bytes, _) = build(&[1, 2, 1], &[2, 0, 0]);
-    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..128]);
-    let positions = (0..128usize).chain(h.skeleton_offset as usize..bytes.len());
+    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..192]);
+    let positions = (0..192usize).chain(h.skeleton_offset as usize..bytes.len());
     for pos in positions {
         let mut b = bytes.clone();
         b[pos] ^= 0x10;
@@ -85,10 +85,10 @@ fn rejects_other_files_and_versions() {
         Err(FormatError::BadMagic(_))
     ));
     let mut b = bytes.clone();
-    b[8] = 2;
+    b[8] = 7;
     assert!(matches!(
         SceneFile::from_source(MemSource::new(b)),
-        Err(FormatError::UnsupportedVersion { found: 2 })
+        Err(FormatError::UnsupportedVersion { found: 7 })
     ));
     let mut b = bytes;
     b.extend_from_slice(&[0; 16]);
@@ -119,7 +119,7 @@ proptest! {
         edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..6),
     ) {
         let (mut bytes, _) = build(&[1, 2, 3, 1], &[3, 0, 0, 0]);
-        let mut h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..128]);
+        let mut h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..192]);
         let (start, end) = (h.skeleton_offset as usize, bytes.len());
         for (at, v) in edits {
             bytes[start + at.index(end - start)] = v;
@@ -127,7 +127,7 @@ proptest! {
         h.skeleton_crc = crc32fast::hash(&bytes[start..end]);
         h.header_crc = 0;
         h.header_crc = crc32fast::hash(bytemuck::bytes_of(&h));
-        bytes[..128].copy_from_slice(bytemuck::bytes_of(&h));
+        bytes[..192].copy_from_slice(bytemuck::bytes_of(&h));
         let result = std::panic::catch_unwind(|| {
             if let Ok(scene) = SceneFile::from_source(MemSource::new(bytes)) {
                 let s = scene.skeleton();
@@ -138,5 +138,106 @@ proptest! {
             }
         });
         prop_assert!(result.is_ok(), "the reader panicked");
+    }
+}
+
+/// A version-1 file: the same scene with the 128-byte header.
+fn as_version_1(bytes: &[u8]) -> Vec<u8> {
+    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..192]);
+    assert_eq!(h.objects_len, 0);
+    let mut v1 = FileHeaderV1 {
+        magic: h.magic,
+        version: 1,
+        header_size: 128,
+        node_count: h.node_count,
+        rep_count: h.rep_count,
+        object_count: h.object_count,
+        flags: h.flags,
+        input_triangles: h.input_triangles,
+        data_offset: h.data_offset,
+        data_len: h.data_len,
+        skeleton_offset: h.skeleton_offset,
+        skeleton_len: h.skeleton_len,
+        file_len: h.file_len,
+        bounds_min: h.bounds_min,
+        bounds_max: h.bounds_max,
+        skeleton_crc: h.skeleton_crc,
+        header_crc: 0,
+        reserved: [0; 4],
+    };
+    v1.header_crc = crc32fast::hash(bytemuck::bytes_of(&v1));
+    let mut out = bytes.to_vec();
+    out[..192].fill(0);
+    out[..128].copy_from_slice(bytemuck::bytes_of(&v1));
+    out
+}
+
+#[test]
+fn version_1_files_are_still_read_with_origin_zero_and_no_objects() {
+    let (bytes, skeleton) = build(&[1, 2, 3], &[2, 0, 0]);
+    let scene = SceneFile::from_source(MemSource::new(as_version_1(&bytes))).unwrap();
+    assert_eq!(scene.skeleton(), &skeleton);
+    assert_eq!(scene.header().version, 1);
+    assert_eq!(scene.meta().origin, [0.0; 3]);
+    assert!(scene.read_objects().unwrap().is_empty());
+    scene.verify_all_reps().unwrap();
+}
+
+#[test]
+fn a_newer_version_is_refused_with_what_to_do() {
+    let (mut bytes, _) = build(&[1], &[0]);
+    bytes[8..12].copy_from_slice(&3u32.to_le_bytes());
+    let e = SceneFile::from_source(MemSource::new(bytes)).unwrap_err();
+    assert!(matches!(e, FormatError::UnsupportedVersion { found: 3 }));
+    assert!(e.to_string().contains("rebuild"), "{e}");
+}
+
+#[test]
+fn origin_and_object_section_round_trip_and_are_checked() {
+    use crate::format::objects::{ObjectTable, Run};
+    use crate::testutil::build_with;
+    let infos = vec![r#"{"name":"a"}"#.to_string(), r#"{"name":"b"}"#.to_string()];
+    let objects = ObjectTable::encode(&infos, &[]);
+    let origin = [5.0e6, -3.25e6, 12.5];
+    let (bytes, skeleton) = build_with(&[1, 2, 3], &[2, 0, 0], origin, &objects);
+    let scene = SceneFile::from_source(MemSource::new(bytes.clone())).unwrap();
+    assert_eq!(scene.meta().origin, origin);
+    let t = scene.read_objects().unwrap();
+    assert_eq!(t.len(), 2);
+    assert_eq!(t.info(1), Some(r#"{"name":"b"}"#));
+    assert_eq!(t.info(2), None);
+    // Leaves name their object; a merged leaf's runs resolve triangles.
+    let leaf = (0..skeleton.nodes.len() as u32)
+        .find(|&n| skeleton.nodes[n as usize].is_leaf())
+        .unwrap();
+    assert!(t.object_at(&skeleton, leaf, 0).is_some());
+    let runs = vec![Run { object: 1, tri_end: 2 }, Run { object: 0, tri_end: 5 }];
+    let mut merged = skeleton.clone();
+    merged.nodes[leaf as usize].object = NONE;
+    let t2 = ObjectTable::decode(&ObjectTable::encode(&infos, &[(leaf, runs)]), &merged).unwrap();
+    assert_eq!(t2.object_at(&merged, leaf, 1), Some(1));
+    assert_eq!(t2.object_at(&merged, leaf, 4), Some(0));
+    assert_eq!(t2.object_at(&merged, leaf, 5), None);
+    // Any flipped bit of the section is caught by its checksum.
+    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..192]);
+    for pos in h.objects_offset as usize..bytes.len() {
+        let mut b = bytes.clone();
+        b[pos] ^= 0x04;
+        let scene = SceneFile::from_source(MemSource::new(b)).unwrap();
+        assert!(scene.read_objects().is_err(), "flip at {pos} accepted");
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 500, ..ProptestConfig::default() })]
+    /// A hostile object section never panics the decoder.
+    #[test]
+    fn hostile_object_sections_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..200), magic in any::<bool>()) {
+        let (_, skeleton) = build(&[1, 2], &[1, 0]);
+        let mut b = bytes;
+        if magic && b.len() >= 8 {
+            b[..8].copy_from_slice(&crate::format::objects::OBJECTS_MAGIC);
+        }
+        let _ = crate::format::objects::ObjectTable::decode(&b, &skeleton);
     }
 }

@@ -50,8 +50,22 @@ impl<W: Write + Seek> SceneWriter<W> {
     }
 
     /// Validates `skeleton` against the written data, writes it and the header,
-    /// and returns the sink (flushed).
-    pub fn finish(mut self, skeleton: &Skeleton, meta: &SceneMeta) -> Result<W, FormatError> {
+    /// and returns the sink (flushed). No object section.
+    pub fn finish(self, skeleton: &Skeleton, meta: &SceneMeta) -> Result<W, FormatError> {
+        self.finish_with_objects(skeleton, meta, &[])
+    }
+
+    /// [`SceneWriter::finish`] with an object section
+    /// ([`ObjectTable::encode`](super::objects::ObjectTable::encode)) after the skeleton.
+    pub fn finish_with_objects(
+        mut self,
+        skeleton: &Skeleton,
+        meta: &SceneMeta,
+        objects: &[u8],
+    ) -> Result<W, FormatError> {
+        if !meta.origin.iter().all(|c| c.is_finite()) {
+            return Err(FormatError::BadHeader("origin is not finite".into()));
+        }
         skeleton.validate(BLOCK, self.pos)?;
         let too_large = |what: &str| FormatError::TooLarge(what.to_string());
         let node_count = u32::try_from(skeleton.nodes.len()).map_err(|_| too_large("nodes"))?;
@@ -64,6 +78,8 @@ impl<W: Write + Seek> SceneWriter<W> {
         self.out.write_all(node_bytes)?;
         self.out.write_all(rep_bytes)?;
         let skeleton_len = (node_bytes.len() + rep_bytes.len()) as u64;
+        self.out.write_all(objects)?;
+        let objects_offset = self.pos + skeleton_len;
         let root = &skeleton.nodes[0];
         let mut header = FileHeader {
             magic: MAGIC,
@@ -78,12 +94,16 @@ impl<W: Write + Seek> SceneWriter<W> {
             data_len: self.pos - BLOCK,
             skeleton_offset: self.pos,
             skeleton_len,
-            file_len: self.pos + skeleton_len,
+            file_len: objects_offset + objects.len() as u64,
             bounds_min: root.bbox_min,
             bounds_max: root.bbox_max,
             skeleton_crc: crc.finalize(),
             header_crc: 0,
-            reserved: [0; 4],
+            origin: meta.origin,
+            objects_offset,
+            objects_len: objects.len() as u64,
+            objects_crc: crc32fast::hash(objects),
+            reserved: [0; 9],
         };
         header.header_crc = crc32fast::hash(bytemuck::bytes_of(&header));
         self.out.seek(SeekFrom::Start(0))?;

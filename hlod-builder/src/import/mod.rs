@@ -1,0 +1,349 @@
+//! glTF 2.0 import (`.gltf` + external or embedded buffers, `.glb`).
+//!
+//! - [`doc`]: the document as permissive serde types; a required extension
+//!   that cannot be honoured (Draco) is refused before anything else.
+//! - [`access`]: bounds-checked accessors of every component type,
+//!   normalized (`KHR_mesh_quantization`), sparse, and meshopt-decoded
+//!   buffer views ([`meshopt_view`], `EXT_meshopt_compression`).
+//! - [`prims`]: primitives merged into one mesh per glTF mesh, with base
+//!   colours from `pbrMetallicRoughness` or `KHR_materials_pbrSpecularGlossiness`.
+//! - [`nodes`]: the hierarchy in `f64`, `EXT_mesh_gpu_instancing` (each
+//!   instance an object), cycles, overflowing transforms.
+//!
+//! Transforms are composed in `f64` and stored relative to an origin
+//! ([`Imported::origin`], kept in the scene file's header), so a model at
+//! survey coordinates keeps millimetres. Structural corruption is an error
+//! naming the glTF part; a part that cannot be drawn is skipped with a
+//! warning, and every warning is kept for the caller to print.
+
+mod access;
+mod doc;
+mod meshopt_view;
+mod nodes;
+mod prims;
+
+use std::path::{Path, PathBuf};
+
+use base64::Engine as _;
+use glam::{DMat4, DVec3, Mat4};
+use serde_json::Value;
+
+use crate::mesh::{Aabb, Mesh};
+
+/// Why a glTF file could not be imported.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    #[error("{path}: cannot read: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: not a valid glTF 2.0 file: {what}")]
+    Parse { path: PathBuf, what: String },
+    #[error("{path}: {what}")]
+    Unsupported { path: PathBuf, what: String },
+    #[error("{path}: {what}")]
+    Invalid { path: PathBuf, what: String },
+    #[error("{path}: the scene has no renderable triangles: {why}")]
+    NoTriangles { path: PathBuf, why: String },
+}
+
+/// One placement of a mesh: an *object*.
+#[derive(Clone, Debug)]
+pub struct Instance {
+    pub mesh: usize,
+    /// Local-to-scene transform: world relative to [`Imported::origin`].
+    pub transform: Mat4,
+    pub name: String,
+    /// The glTF node that places it (`None` when the file has no nodes).
+    pub node: Option<usize>,
+    /// Its index among the node's `EXT_mesh_gpu_instancing` instances.
+    pub instance: Option<u32>,
+}
+
+/// The imported scene: meshes in their local space and their placements.
+#[derive(Debug, Default)]
+pub struct Imported {
+    /// One entry per glTF mesh; `None` when it has no usable triangles.
+    pub meshes: Vec<Option<Mesh>>,
+    pub instances: Vec<Instance>,
+    /// Triangles of each mesh as read, before degenerate ones were dropped.
+    pub source_tris: Vec<u64>,
+    /// Parts skipped, with the reason.
+    pub warnings: Vec<String>,
+    /// World position of the scene's coordinate origin.
+    pub origin: [f64; 3],
+    /// Name and `extras` of each glTF mesh, and of each node.
+    pub mesh_info: Vec<(Option<String>, Option<Value>)>,
+    pub node_info: Vec<(Option<String>, Option<Value>)>,
+}
+
+impl Imported {
+    /// Usable triangles after instancing (degenerate ones dropped).
+    pub fn instanced_triangles(&self) -> u64 {
+        self.instances
+            .iter()
+            .filter_map(|i| self.meshes[i.mesh].as_ref())
+            .map(|m| m.tri_count() as u64)
+            .sum()
+    }
+
+    /// Source triangles after instancing, as the file has them.
+    pub fn instanced_source_triangles(&self) -> u64 {
+        self.instances
+            .iter()
+            .map(|i| self.source_tris[i.mesh])
+            .sum()
+    }
+
+    /// What the viewer shows for object `k`: its names, `extras` and glTF
+    /// indices, as one JSON object.
+    pub fn object_info(&self, k: usize) -> Value {
+        let inst = &self.instances[k];
+        let mut o = serde_json::Map::new();
+        o.insert("name".into(), inst.name.clone().into());
+        if let Some(n) = inst.node {
+            o.insert("node".into(), n.into());
+            if let Some((_, Some(x))) = self.node_info.get(n) {
+                o.insert("extras".into(), x.clone());
+            }
+        }
+        if let Some(k) = inst.instance {
+            o.insert("instance".into(), k.into());
+        }
+        o.insert("mesh".into(), inst.mesh.into());
+        if let Some((name, extras)) = self.mesh_info.get(inst.mesh) {
+            if let Some(n) = name {
+                o.insert("mesh_name".into(), n.clone().into());
+            }
+            if let Some(x) = extras {
+                o.insert("mesh_extras".into(), x.clone());
+            }
+        }
+        Value::Object(o)
+    }
+}
+
+/// The largest glTF/GLB file (or external buffer) read: half the machine's
+/// memory (the build needs several times its input besides).
+pub fn max_input_bytes() -> u64 {
+    engine::limits::memory_total() / 2
+}
+
+/// Scenes whose coordinates all lie within this keep the world origin (f32
+/// then holds them to better than 0.25 mm); others get their box centre.
+pub const ORIGIN_FREE_EXTENT: f64 = 4096.0;
+
+/// Loads `path`.
+pub fn load(path: &Path) -> Result<Imported, ImportError> {
+    let read_err = |source| ImportError::Read {
+        path: path.to_path_buf(),
+        source,
+    };
+    // A pipe or a device (`/dev/zero`) has no length to bound the read by.
+    let meta = std::fs::metadata(path).map_err(read_err)?;
+    if !meta.is_file() {
+        return Err(read_err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file (a directory, pipe or device): save the model to a file first",
+        )));
+    }
+    let bytes = engine::limits::read_bounded(path, max_input_bytes()).map_err(read_err)?;
+    load_slice(&bytes, path.parent().unwrap_or(Path::new(".")), path)
+}
+
+/// Loads glTF or GLB bytes; external buffers are resolved against `base_dir`,
+/// errors name `path`.
+pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported, ImportError> {
+    let invalid = |what: String| ImportError::Invalid {
+        path: path.to_path_buf(),
+        what,
+    };
+    let (json, bin) = doc::split(bytes).map_err(|what| ImportError::Parse {
+        path: path.to_path_buf(),
+        what,
+    })?;
+    let doc = doc::parse(json).map_err(|what| {
+        if what.starts_with("requires the extension") {
+            ImportError::Unsupported {
+                path: path.to_path_buf(),
+                what,
+            }
+        } else {
+            ImportError::Parse {
+                path: path.to_path_buf(),
+                what,
+            }
+        }
+    })?;
+    let data = load_buffers(&doc, bin, base_dir).map_err(&invalid)?;
+    let bufs = access::Buffers::new(&doc, data);
+    let mut out = Imported {
+        mesh_info: doc.meshes.iter().map(|m| (m.name.clone(), m.extras.clone())).collect(),
+        node_info: doc.nodes.iter().map(|n| (n.name.clone(), n.extras.clone())).collect(),
+        ..Imported::default()
+    };
+    for m in 0..doc.meshes.len() {
+        let (mesh, source) = prims::read_mesh(&bufs, m, &mut out.warnings).map_err(&invalid)?;
+        out.meshes.push(mesh);
+        out.source_tris.push(source);
+    }
+    let boxes: Vec<Option<Aabb>> = out.meshes.iter().map(|m| m.as_ref().map(Mesh::bounds)).collect();
+    let placed = nodes::place(&doc, &bufs, &boxes, &mut out.warnings).map_err(&invalid)?;
+    if placed.is_empty() {
+        return Err(ImportError::NoTriangles {
+            path: path.to_path_buf(),
+            why: no_triangles_why(&doc, &out.warnings),
+        });
+    }
+    out.origin = choose_origin(&placed, &boxes);
+    let to_scene = DMat4::from_translation(-DVec3::from(out.origin));
+    out.instances = placed
+        .into_iter()
+        .map(|p| {
+            let base = p.node.and_then(|n| doc.nodes[n].name.clone()).unwrap_or_else(|| match p.node {
+                Some(n) => format!("nodes[{n}]"),
+                None => format!("meshes[{}]", p.mesh),
+            });
+            Instance {
+                mesh: p.mesh,
+                transform: (to_scene * p.world).as_mat4(),
+                name: match p.instance {
+                    Some(k) => format!("{base} #{k}"),
+                    None => base,
+                },
+                node: p.node,
+                instance: p.instance,
+            }
+        })
+        .collect();
+    Ok(out)
+}
+
+/// Zero when every placed box lies within [`ORIGIN_FREE_EXTENT`], else the
+/// world box's centre rounded to whole units (deterministic, readable).
+fn choose_origin(placed: &[nodes::Placement], boxes: &[Option<Aabb>]) -> [f64; 3] {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for p in placed {
+        let Some(b) = &boxes[p.mesh] else { continue };
+        for k in 0..8 {
+            let c = DVec3::new(
+                f64::from(if k & 1 == 0 { b.min.x } else { b.max.x }),
+                f64::from(if k & 2 == 0 { b.min.y } else { b.max.y }),
+                f64::from(if k & 4 == 0 { b.min.z } else { b.max.z }),
+            );
+            let w = p.world.transform_point3(c);
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
+    if lo.abs().max(hi.abs()).max_element() <= ORIGIN_FREE_EXTENT {
+        return [0.0; 3];
+    }
+    ((lo + hi) * 0.5).round().to_array()
+}
+
+/// Why nothing could be placed, from the warnings and the document.
+fn no_triangles_why(doc: &doc::Doc, warnings: &[String]) -> String {
+    if doc.meshes.is_empty() {
+        return "the file has no meshes".into();
+    }
+    if warnings.is_empty() {
+        return "no node of the scene places a mesh".into();
+    }
+    let shown: Vec<&str> = warnings.iter().take(8).map(String::as_str).collect();
+    let more = warnings.len().saturating_sub(shown.len());
+    let tail = if more > 0 {
+        format!("; and {more} more")
+    } else {
+        String::new()
+    };
+    format!("{}{tail}", shown.join("; "))
+}
+
+/// The bytes of every buffer: the GLB BIN chunk, a data URI or an external
+/// file (read up to its declared length); a meshopt fallback buffer
+/// without a source is empty.
+fn load_buffers(doc: &doc::Doc, bin: Option<&[u8]>, base_dir: &Path) -> Result<Vec<Vec<u8>>, String> {
+    let mut out = Vec::new();
+    let mut bin = bin;
+    for (i, buf) in doc.buffers.iter().enumerate() {
+        let data = match &buf.uri {
+            None if buf.is_fallback() => Vec::new(),
+            None => bin
+                .take()
+                .ok_or_else(|| format!("buffers[{i}] refers to a missing GLB BIN chunk"))?
+                .to_vec(),
+            Some(uri) => {
+                if let Some(rest) = uri.strip_prefix("data:") {
+                    let b64 = rest
+                        .split_once(";base64,")
+                        .map(|(_, d)| d)
+                        .ok_or_else(|| format!("buffers[{i}]: unsupported data URI"))?;
+                    base64::engine::general_purpose::STANDARD
+                        .decode(b64)
+                        .map_err(|e| format!("buffers[{i}]: bad base64: {e}"))?
+                } else {
+                    let file = base_dir.join(percent_decode(uri));
+                    read_buffer_file(&file, buf.byte_length).map_err(|e| {
+                        format!("buffers[{i}]: cannot read {}: {e}", file.display())
+                    })?
+                }
+            }
+        };
+        if (data.len() as u64) < buf.byte_length && !(buf.is_fallback() && data.is_empty()) {
+            return Err(format!(
+                "buffers[{i}] has {} bytes, declares {} (truncated file?)",
+                data.len(),
+                buf.byte_length
+            ));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// The first `len` bytes of an external buffer file (what the buffer
+/// declares; a longer file is fine, a shorter one an error), never more:
+/// a buffer naming `/dev/zero` reads `len` bytes.
+fn read_buffer_file(file: &Path, len: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    if len > max_input_bytes() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::FileTooLarge,
+            format!(
+                "declares {}, more than the {} this importer reads",
+                engine::limits::human(len),
+                engine::limits::human(max_input_bytes())
+            ),
+        ));
+    }
+    let f = std::fs::File::open(file)?;
+    if f.metadata()?.is_dir() {
+        return Err(std::io::ErrorKind::IsADirectory.into());
+    }
+    let mut out = Vec::new();
+    out.try_reserve_exact(len as usize)
+        .map_err(|_| std::io::Error::from(std::io::ErrorKind::OutOfMemory))?;
+    f.take(len).read_to_end(&mut out)?;
+    Ok(out)
+}
+
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' && i + 2 < b.len() {
+            let hex = std::str::from_utf8(&b[i + 1..i + 3]).ok();
+            if let Some(v) = hex.and_then(|h| u8::from_str_radix(h, 16).ok()) {
+                out.push(v);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}

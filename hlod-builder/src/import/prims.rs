@@ -1,0 +1,168 @@
+//! A glTF mesh's primitives read and merged into one [`Mesh`], each vertex
+//! coloured by its material's base colour (times `COLOR_0`).
+
+use super::access::{self, Buffers, F32, I8, I16, U8, U16};
+use crate::mesh::Mesh;
+
+/// Triangle topologies (points and lines are skipped).
+const TRIANGLES: u32 = 4;
+const STRIP: u32 = 5;
+const FAN: u32 = 6;
+
+/// All primitives of mesh `m` merged, with the triangle count read
+/// (degenerate ones included). Structural errors (an accessor out of its
+/// buffer) fail the file; a part that cannot be drawn is a warning.
+pub fn read_mesh(
+    bufs: &Buffers,
+    m: usize,
+    warnings: &mut Vec<String>,
+) -> Result<(Option<Mesh>, u64), String> {
+    let doc = bufs.doc;
+    let mut out = Mesh::default();
+    let mut source = 0u64;
+    for (p, prim) in doc.meshes[m].primitives.iter().enumerate() {
+        let what = format!("meshes[{m}].primitives[{p}]");
+        let Some(&pos) = prim.attributes.get("POSITION") else {
+            warnings.push(format!("{what}: no POSITION, skipped"));
+            continue;
+        };
+        if !matches!(prim.mode, TRIANGLES | STRIP | FAN) {
+            let name = match prim.mode {
+                0 => "POINTS",
+                1 => "LINES",
+                2 => "LINE_LOOP",
+                3 => "LINE_STRIP",
+                _ => "unknown",
+            };
+            warnings.push(format!(
+                "{what}: mode {} ({name}) is not triangles, skipped",
+                prim.mode
+            ));
+            continue;
+        }
+        let positions = access::read_f32::<3>(bufs, pos)
+            .map_err(|e| format!("{what}.attributes.POSITION: {e}"))?;
+        if positions.iter().flatten().any(|c| !c.is_finite()) {
+            warnings.push(format!("{what}: non-finite positions, skipped"));
+            continue;
+        }
+        let normals = read_normals(bufs, prim.attributes.get("NORMAL").copied(), &what, warnings)?
+            .filter(|n| n.len() == positions.len() && n.iter().flatten().all(|c| c.is_finite()));
+        let raw = match prim.indices {
+            Some(a) => {
+                access::read_indices(bufs, a).map_err(|e| format!("{what}.indices: {e}"))?
+            }
+            None => (0..positions.len() as u32).collect(),
+        };
+        if let Some(&bad) = raw.iter().find(|&&i| i as usize >= positions.len()) {
+            warnings.push(format!(
+                "{what}: index {bad} out of range of {} vertices, skipped",
+                positions.len()
+            ));
+            continue;
+        }
+        let indices = triangulate(prim.mode, &raw);
+        let base = prim
+            .material
+            .and_then(|i| doc.materials.get(i))
+            .map_or([1.0; 4], |mat| mat.base_color());
+        let colors = match prim.attributes.get("COLOR_0") {
+            Some(&a) => read_colors(bufs, a, base, positions.len())
+                .map_err(|e| format!("{what}.attributes.COLOR_0: {e}"))?,
+            None => vec![to_rgba8(base); positions.len()],
+        };
+        let mut part = Mesh {
+            colors,
+            normals: normals.clone().unwrap_or_default(),
+            positions,
+            indices,
+        };
+        if normals.is_none() {
+            part.compute_normals();
+        }
+        source += part.tri_count() as u64;
+        let dropped = part.remove_degenerate();
+        if dropped > 0 {
+            warnings.push(format!("{what}: {dropped} degenerate triangles dropped"));
+        }
+        out.append(&part);
+    }
+    if out.tri_count() == 0 {
+        warnings.push(format!(
+            "meshes[{m}]: no usable triangles, its instances skipped"
+        ));
+        return Ok((None, source));
+    }
+    Ok((Some(out), source))
+}
+
+/// NORMAL as float or normalized signed integers (`KHR_mesh_quantization`);
+/// another type is a warning, and the normals are recomputed.
+fn read_normals(
+    bufs: &Buffers,
+    acc: Option<usize>,
+    what: &str,
+    warnings: &mut Vec<String>,
+) -> Result<Option<Vec<[f32; 3]>>, String> {
+    let Some(a) = acc else { return Ok(None) };
+    let (t, dims) = access::shape(bufs.doc, a).map_err(|e| format!("{what}.attributes.NORMAL: {e}"))?;
+    let normalized = bufs.doc.accessors[a].normalized;
+    if dims != Some(3) || !(t == F32 || (matches!(t, I8 | I16) && normalized)) {
+        warnings.push(format!(
+            "{what}.attributes.NORMAL: accessors[{a}] is not float or normalized signed VEC3, normals recomputed"
+        ));
+        return Ok(None);
+    }
+    access::read_f32::<3>(bufs, a)
+        .map(Some)
+        .map_err(|e| format!("{what}.attributes.NORMAL: {e}"))
+}
+
+fn to_rgba8(c: [f64; 4]) -> [u8; 4] {
+    c.map(|x| {
+        let x = if x.is_finite() { x.clamp(0.0, 1.0) } else { 1.0 };
+        (x * 255.0).round() as u8
+    })
+}
+
+/// `COLOR_0` (VEC3 or VEC4; float or normalized unsigned) times the base colour.
+fn read_colors(bufs: &Buffers, a: usize, base: [f64; 4], n: usize) -> Result<Vec<[u8; 4]>, String> {
+    let (t, dims) = access::shape(bufs.doc, a)?;
+    let normalized = bufs.doc.accessors[a].normalized;
+    if !(t == F32 || (matches!(t, U8 | U16) && normalized)) {
+        return Err(format!("accessors[{a}] is not float or normalized unsigned"));
+    }
+    let rgba: Vec<[f32; 4]> = match dims {
+        Some(3) => access::read_f32::<3>(bufs, a)?
+            .into_iter()
+            .map(|[r, g, b]| [r, g, b, 1.0])
+            .collect(),
+        Some(4) => access::read_f32::<4>(bufs, a)?,
+        _ => return Err(format!("accessors[{a}] is not VEC3 or VEC4")),
+    };
+    if rgba.len() != n {
+        return Err(format!("{} colours for {n} vertices", rgba.len()));
+    }
+    Ok(rgba
+        .into_iter()
+        .map(|c| to_rgba8(std::array::from_fn(|k| base[k] * f64::from(c[k]))))
+        .collect())
+}
+
+fn triangulate(mode: u32, idx: &[u32]) -> Vec<u32> {
+    match mode {
+        STRIP => (2..idx.len())
+            .flat_map(|i| {
+                if i % 2 == 0 {
+                    [idx[i - 2], idx[i - 1], idx[i]]
+                } else {
+                    [idx[i - 1], idx[i - 2], idx[i]]
+                }
+            })
+            .collect(),
+        FAN => (2..idx.len())
+            .flat_map(|i| [idx[0], idx[i - 1], idx[i]])
+            .collect(),
+        _ => idx[..idx.len() - idx.len() % 3].to_vec(),
+    }
+}
