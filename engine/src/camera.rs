@@ -48,6 +48,32 @@ impl Pose {
         self.rotation * Vec3::NEG_Z
     }
 
+    /// The ray through pixel `(x, y)` (from the top left, in pixels) of a
+    /// `width` x `height` viewport: the eye and a unit direction.
+    pub fn ray(&self, width: u32, height: u32, x: f32, y: f32) -> (Vec3, Vec3) {
+        let (w, h) = (width.max(1) as f32, height.max(1) as f32);
+        let tan = (0.5 * self.fov_y_deg.to_radians()).tan();
+        let sx = (2.0 * x / w - 1.0) * tan * (w / h);
+        let sy = (1.0 - 2.0 * y / h) * tan;
+        let d = self.rotation * Vec3::new(sx, sy, -1.0);
+        (self.position, d.normalize_or(self.forward()))
+    }
+
+    /// Where the scene point `p` lands on the viewport, in pixels from the
+    /// top left, and its depth along the view; `None` behind the eye.
+    pub fn project(&self, width: u32, height: u32, p: Vec3) -> Option<(f32, f32, f32)> {
+        let c = self.rotation.inverse() * (p - self.position);
+        let depth = -c.z;
+        if depth <= 1e-6 {
+            return None;
+        }
+        let (w, h) = (width.max(1) as f32, height.max(1) as f32);
+        let tan = (0.5 * self.fov_y_deg.to_radians()).tan();
+        let sx = c.x / depth / (tan * w / h);
+        let sy = c.y / depth / tan;
+        Some(((sx + 1.0) * 0.5 * w, (1.0 - sy) * 0.5 * h, depth))
+    }
+
     /// Angle in radians between this pose's view direction and `other`'s.
     pub fn angle_to(&self, other: &Pose) -> f32 {
         self.forward().dot(other.forward()).clamp(-1.0, 1.0).acos()
@@ -457,6 +483,26 @@ mod tests {
             near: 0.1,
             far: 1000.0,
         }
+    }
+
+    #[test]
+    fn a_pixel_ray_and_projection_invert_each_other() {
+        let pose = Pose::look_at(Vec3::new(1.0, 2.0, 3.0), Vec3::new(-4.0, 0.5, -2.0), 55.0);
+        for (x, y) in [(640.0, 360.0), (10.0, 700.0), (1270.0, 5.0)] {
+            let (o, d) = pose.ray(1280, 720, x, y);
+            let (px, py, depth) = pose.project(1280, 720, o + d * 7.0).unwrap();
+            assert!(
+                (px - x).abs() < 0.01 && (py - y).abs() < 0.01,
+                "{x},{y} -> {px},{py}"
+            );
+            assert!(depth > 0.0);
+        }
+        let (_, centre) = pose.ray(1280, 720, 640.0, 360.0);
+        assert!(centre.angle_between(pose.forward()) < 1e-4);
+        assert!(
+            pose.project(1280, 720, pose.position - pose.forward())
+                .is_none()
+        );
     }
 
     #[test]

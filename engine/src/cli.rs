@@ -153,6 +153,32 @@ pub fn size_or_off(option: &str, s: &str, data_bytes: u64) -> anyhow::Result<u64
     }
 }
 
+/// The most `--budget auto` gives: 1 GiB (further capped at a quarter of
+/// the machine's memory).
+pub const AUTO_BUDGET_CAP: u64 = 1 << 30;
+
+/// `--budget auto` for a scene: all its rep data up to [`AUTO_BUDGET_CAP`]
+/// and a quarter of this machine's memory, and never less than its minimal
+/// front plus room to load its largest rep (the root's coarsest rep, which
+/// stays resident, plus the largest extent), so that it can always be shown
+/// and refined.
+pub fn auto_budget(skeleton: &crate::Skeleton) -> u64 {
+    let data: u64 = skeleton.reps.iter().map(crate::RepRecord::extent).sum();
+    let root = skeleton
+        .nodes
+        .first()
+        .and_then(|n| skeleton.reps.get(n.first_rep as usize))
+        .map_or(0, crate::RepRecord::extent);
+    let largest = skeleton
+        .reps
+        .iter()
+        .map(crate::RepRecord::extent)
+        .max()
+        .unwrap_or(0);
+    let cap = AUTO_BUDGET_CAP.min(crate::limits::memory_total() / 4);
+    data.min(cap).max(root + largest).max(1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

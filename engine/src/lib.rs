@@ -29,6 +29,8 @@
 //! - [`metrics`] (per-frame CSV, summaries), [`render`] (the renderer trait and
 //!   the `none` renderer) and [`cli`] (shared plumbing of the binaries: error
 //!   report, the validated parameter layer).
+//! - [`pick`]: the object under a pixel (leaf boxes, then the finest rep's
+//!   triangles), resolved through the scene file's object section.
 //! - [`limits`] (checked durations, allocations and reads bounded by the
 //!   file and the machine) and [`outfile`] (the output-file policy of every
 //!   writer: regular or new files only, never an input, atomic, cleaned up).
@@ -54,6 +56,7 @@ pub mod io;
 pub mod limits;
 pub mod metrics;
 pub mod outfile;
+pub mod pick;
 pub mod prefetch;
 pub mod render;
 pub mod runtime;

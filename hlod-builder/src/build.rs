@@ -176,6 +176,10 @@ struct Coarse {
     error: f32,
 }
 
+/// Where a build is: a stage name, nodes done and nodes in all (0 while
+/// the total is not known yet).
+pub type Report<'a> = &'a (dyn Fn(&str, u64, u64) + Sync);
+
 /// Builds `input` into the scene file `output` (written atomically).
 pub fn build_file(
     input: &Path,
@@ -183,7 +187,19 @@ pub fn build_file(
     params: &BuildParams,
     progress: bool,
 ) -> Result<BuildStats, BuildError> {
+    build_file_reporting(input, output, params, progress, &|_, _, _| {})
+}
+
+/// [`build_file`], telling `report` how far it is (the viewer's progress).
+pub fn build_file_reporting(
+    input: &Path,
+    output: &Path,
+    params: &BuildParams,
+    progress: bool,
+    report: Report<'_>,
+) -> Result<BuildStats, BuildError> {
     params.check()?;
+    report("importing", 0, 0);
     let t0 = Instant::now();
     // The output policy first: a device, a directory or the input itself
     // is refused before any work.
@@ -199,12 +215,10 @@ pub fn build_file(
     };
     let dir = engine::outfile::parent_dir(out.target()).to_path_buf();
     let sink = BufWriter::with_capacity(1 << 20, out.file().try_clone().map_err(io_err)?);
-    let mut stats =
-        build_scene_staged(&imported, sink, params, progress, Some(&dir)).map_err(|source| {
-            BuildError::Write {
-                path: output.to_path_buf(),
-                source,
-            }
+    let mut stats = build_scene_staged(&imported, sink, params, (progress, report), Some(&dir))
+        .map_err(|source| BuildError::Write {
+            path: output.to_path_buf(),
+            source,
         })?;
     out.commit()?;
     stats.file_bytes = std::fs::metadata(output).map_err(io_err)?.len();
@@ -219,7 +233,7 @@ pub fn build_scene<W: Write + std::io::Seek>(
     params: &BuildParams,
     progress: bool,
 ) -> Result<BuildStats, FormatError> {
-    build_scene_staged(imported, sink, params, progress, None)
+    build_scene_staged(imported, sink, params, (progress, &|_, _, _| {}), None)
 }
 
 /// [`build_scene`]; for the spatial layout the reps are first written in the
@@ -229,7 +243,7 @@ fn build_scene_staged<W: Write + std::io::Seek>(
     imported: &Imported,
     sink: W,
     params: &BuildParams,
-    progress: bool,
+    progress: (bool, Report<'_>),
     staging: Option<&Path>,
 ) -> Result<BuildStats, FormatError> {
     if !params.spatial_layout {
@@ -256,6 +270,7 @@ fn build_scene_staged<W: Write + std::io::Seek>(
             ))
         })?;
     }
+    progress.1("writing the spatial layout", stats.nodes, stats.nodes);
     crate::layout::relayout(&staged, sink)?;
     Ok(stats)
 }
@@ -264,7 +279,7 @@ fn build_in_make_order<W: Write + std::io::Seek>(
     imported: &Imported,
     sink: W,
     params: &BuildParams,
-    progress: bool,
+    (progress, report): (bool, Report<'_>),
 ) -> Result<BuildStats, FormatError> {
     let mut stats = BuildStats {
         objects: imported.instances.len() as u64,
@@ -320,7 +335,10 @@ fn build_in_make_order<W: Write + std::io::Seek>(
         }
     }
     // 2. Topology.
+    report("clustering", 0, 0);
     let tree = cluster(&cluster_items, params.branching, params.leaf_tris);
+    let total = tree.len() as u64;
+    let mut done = 0u64;
     let bar = if progress {
         ProgressBar::new(tree.len() as u64).with_style(
             ProgressStyle::with_template(
@@ -335,6 +353,7 @@ fn build_in_make_order<W: Write + std::io::Seek>(
     // 3. Chains of meshes placed by several single-instance leaves, computed
     // once in local space; other leaves compute theirs in their batch.
     bar.set_message("mesh LODs");
+    report("mesh LODs", 0, total);
     let mut placed: Vec<usize> = tree
         .iter()
         .filter(|n| n.items.len() == 1)
@@ -379,6 +398,7 @@ fn build_in_make_order<W: Write + std::io::Seek>(
     }
     // 4. Leaves, in batches, written in breadth-first order.
     bar.set_message("leaf LODs");
+    report("leaf LODs", 0, total);
     let leaves: Vec<usize> = (0..tree.len())
         .filter(|&i| !tree[i].items.is_empty())
         .collect();
@@ -416,7 +436,9 @@ fn build_in_make_order<W: Write + std::io::Seek>(
             node_reps[i] = recs;
             coarse[i] = Some(c);
             bar.inc(1);
+            done += 1;
         }
+        report("leaf LODs", done, total);
     }
     // 5. Interior nodes, deepest level first.
     bar.set_message("HLODs");
@@ -474,7 +496,9 @@ fn build_in_make_order<W: Write + std::io::Seek>(
                     coarse[ch as usize] = None;
                 }
                 bar.inc(1);
+                done += 1;
             }
+            report("HLODs", done, total);
         }
     }
     bar.finish_and_clear();
@@ -523,7 +547,8 @@ fn object_infos(imported: &Imported) -> Vec<String> {
         .enumerate()
         .map(|(k, inst)| {
             let mut v = imported.object_info(k);
-            if let (Some(m), serde_json::Value::Object(map)) = (&imported.meshes[inst.mesh], &mut v) {
+            if let (Some(m), serde_json::Value::Object(map)) = (&imported.meshes[inst.mesh], &mut v)
+            {
                 let b = transformed_bounds(m.bounds(), &inst.transform);
                 let w = |p: glam::Vec3| (p.as_dvec3() + o).to_array().to_vec();
                 map.insert("box_min".into(), w(b.min).into());
@@ -612,7 +637,10 @@ fn leaf_levels<'a>(
         let object = item_object(&items[k as usize]);
         match runs.last_mut() {
             Some(r) if r.object == object => r.tri_end = end,
-            _ => runs.push(Run { object, tri_end: end }),
+            _ => runs.push(Run {
+                object,
+                tri_end: end,
+            }),
         }
     }
     (

@@ -16,6 +16,7 @@
 //! - [`summary`]: the Table-1-style summary printed by `build` and `info`.
 
 pub mod build;
+pub mod cache;
 pub mod cluster;
 pub mod import;
 pub mod layout;

@@ -30,11 +30,17 @@ pub struct Flat {
 impl Flat {
     /// Triangles after instancing: the independent count.
     pub fn triangles(&self) -> u64 {
-        self.placements.iter().map(|(m, _)| self.mesh_tris(*m)).sum()
+        self.placements
+            .iter()
+            .map(|(m, _)| self.mesh_tris(*m))
+            .sum()
     }
 
     pub fn mesh_tris(&self, m: usize) -> u64 {
-        self.meshes[m].iter().map(|p| p.indices.len() as u64 / 3).sum()
+        self.meshes[m]
+            .iter()
+            .map(|p| p.indices.len() as u64 / 3)
+            .sum()
     }
 }
 
@@ -92,7 +98,9 @@ pub fn read_flat(path: &Path) -> Flat {
 pub enum Variant {
     Plain,
     /// `EXT_mesh_gpu_instancing` in `extensionsUsed` (or required).
-    Instanced { required: bool },
+    Instanced {
+        required: bool,
+    },
     /// `KHR_mesh_quantization`: u16 positions, i8 normals, u16 indices where they fit.
     Quantized,
     /// Quantized, then every view `EXT_meshopt_compression`-encoded, with a fallback buffer.
@@ -160,7 +168,10 @@ pub fn write(flat: &Flat, v: Variant) -> (Vec<u8>, Expect) {
                 bounds.1 = bounds.1.max(Vec3::from(*q));
             }
         }
-        let (lo, scale) = (bounds.0, ((bounds.1 - bounds.0) / 65535.0).max(Vec3::splat(1e-12)));
+        let (lo, scale) = (
+            bounds.0,
+            ((bounds.1 - bounds.0) / 65535.0).max(Vec3::splat(1e-12)),
+        );
         for p in prims {
             ps.push(if quant {
                 w.quantized_prim(p, lo, scale, v == Variant::Meshopt)
@@ -173,7 +184,8 @@ pub fn write(flat: &Flat, v: Variant) -> (Vec<u8>, Expect) {
                 p["material"] = json!(w.materials.len() % 2);
             }
         }
-        w.meshes.push(json!({ "primitives": ps, "name": format!("mesh{}", w.meshes.len()) }));
+        w.meshes
+            .push(json!({ "primitives": ps, "name": format!("mesh{}", w.meshes.len()) }));
         dequant.push(if quant {
             Mat4::from_translation(lo) * Mat4::from_scale(scale)
         } else {
@@ -195,7 +207,8 @@ pub fn write(flat: &Flat, v: Variant) -> (Vec<u8>, Expect) {
                 if !list.is_empty() {
                     let (t, r, s) = w.instance_accessors(&list);
                     roots.push(w.nodes.len());
-                    w.nodes.push(json!({ "mesh": m, "name": format!("instances of {m}"),
+                    w.nodes
+                        .push(json!({ "mesh": m, "name": format!("instances of {m}"),
                         "extensions": { "EXT_mesh_gpu_instancing": { "attributes": {
                             "TRANSLATION": t, "ROTATION": r, "SCALE": s } } } }));
                 }
@@ -229,8 +242,10 @@ pub fn write(flat: &Flat, v: Variant) -> (Vec<u8>, Expect) {
                     matrix = (0..16).map(|_| json!(1e300)).collect();
                 }
                 roots.push(w.nodes.len());
-                w.nodes.push(json!({ "mesh": m, "matrix": matrix, "name": format!("part {k}"),
-                    "extras": { "GlobalId": format!("id-{k}"), "type": "IfcWall" } }));
+                w.nodes.push(
+                    json!({ "mesh": m, "matrix": matrix, "name": format!("part {k}"),
+                    "extras": { "GlobalId": format!("id-{k}"), "type": "IfcWall" } }),
+                );
             }
         }
     }
@@ -373,7 +388,15 @@ impl Writer {
 
     /// A view of `count` elements of `stride` bytes compressed with meshopt
     /// into buffer 1; buffer 0 is the fallback.
-    fn meshopt_view(&mut self, raw: &[u8], count: usize, stride: usize, mode: &str, filter: &str, vertices: usize) -> usize {
+    fn meshopt_view(
+        &mut self,
+        raw: &[u8],
+        count: usize,
+        stride: usize,
+        mode: &str,
+        filter: &str,
+        vertices: usize,
+    ) -> usize {
         let enc = match (mode, stride) {
             ("TRIANGLES", 4) => {
                 let idx: Vec<u32> = bytemuck::pod_collect_to_vec(raw);
@@ -386,8 +409,14 @@ impl Writer {
                     .collect();
                 meshopt::encode_index_buffer(&idx, vertices).unwrap()
             }
-            (_, 4) => meshopt::encode_vertex_buffer(&bytemuck::pod_collect_to_vec::<u8, [u8; 4]>(raw)).unwrap(),
-            (_, 8) => meshopt::encode_vertex_buffer(&bytemuck::pod_collect_to_vec::<u8, [u8; 8]>(raw)).unwrap(),
+            (_, 4) => {
+                meshopt::encode_vertex_buffer(&bytemuck::pod_collect_to_vec::<u8, [u8; 4]>(raw))
+                    .unwrap()
+            }
+            (_, 8) => {
+                meshopt::encode_vertex_buffer(&bytemuck::pod_collect_to_vec::<u8, [u8; 8]>(raw))
+                    .unwrap()
+            }
             _ => panic!("stride {stride}"),
         };
         while !self.bin.len().is_multiple_of(4) {
@@ -411,8 +440,16 @@ impl Writer {
         self.views.len() - 1
     }
 
-    fn accessor(&mut self, view: usize, ctype: u32, normalized: bool, count: usize, kind: &str) -> usize {
-        let mut a = json!({ "bufferView": view, "componentType": ctype, "count": count, "type": kind });
+    fn accessor(
+        &mut self,
+        view: usize,
+        ctype: u32,
+        normalized: bool,
+        count: usize,
+        kind: &str,
+    ) -> usize {
+        let mut a =
+            json!({ "bufferView": view, "componentType": ctype, "count": count, "type": kind });
         if normalized {
             a["normalized"] = json!(true);
         }
@@ -471,7 +508,14 @@ impl Writer {
             let nv = if meshopt {
                 let f: Vec<[f32; 4]> = nr.iter().map(|v| [v[0], v[1], v[2], 0.0]).collect();
                 let enc: Vec<[i8; 4]> = meshopt::encode_filter_oct(&f, 8);
-                self.meshopt_view(bytemuck::cast_slice(&enc), n, 4, "ATTRIBUTES", "OCTAHEDRAL", n)
+                self.meshopt_view(
+                    bytemuck::cast_slice(&enc),
+                    n,
+                    4,
+                    "ATTRIBUTES",
+                    "OCTAHEDRAL",
+                    n,
+                )
             } else {
                 let b: Vec<[i8; 4]> = nr
                     .iter()
@@ -486,7 +530,10 @@ impl Writer {
         }
         let small = n <= 65536;
         let ibytes: Vec<u8> = if small {
-            p.indices.iter().flat_map(|&i| (i as u16).to_le_bytes()).collect()
+            p.indices
+                .iter()
+                .flat_map(|&i| (i as u16).to_le_bytes())
+                .collect()
         } else {
             p.indices.iter().flat_map(|&i| i.to_le_bytes()).collect()
         };

@@ -63,7 +63,12 @@ fn accessor_out_of_range() {
     let msg = e.to_string();
     assert!(msg.contains("out of range"), "{e}");
     // The file and the glTF part, once.
-    assert!(msg.contains("oob.gltf") && msg.contains("meshes[0].primitives[0]") && msg.contains("accessors[0]"), "{e}");
+    assert!(
+        msg.contains("oob.gltf")
+            && msg.contains("meshes[0].primitives[0]")
+            && msg.contains("accessors[0]"),
+        "{e}"
+    );
 }
 
 #[test]

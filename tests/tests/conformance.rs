@@ -35,7 +35,9 @@ fn world_box(imp: &import::Imported) -> (Vec3, Vec3) {
     let o = Vec3::from(imp.origin.map(|c| c as f32));
     let mut b = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for inst in &imp.instances {
-        let Some(m) = &imp.meshes[inst.mesh] else { continue };
+        let Some(m) = &imp.meshes[inst.mesh] else {
+            continue;
+        };
         for p in &m.positions {
             let w = inst.transform.transform_point3(Vec3::from(*p)) + o;
             b.0 = b.0.min(w);
@@ -57,7 +59,12 @@ fn check(model: &str, v: Variant) -> (Outcome, u64, u64, String) {
         (Expect::Triangles(n), Ok(imp)) => {
             let have = imp.instanced_source_triangles();
             if have != n {
-                return (Outcome::Wrong(format!("{have} triangles, expected {n}")), n, have, String::new());
+                return (
+                    Outcome::Wrong(format!("{have} triangles, expected {n}")),
+                    n,
+                    have,
+                    String::new(),
+                );
             }
             // Geometry: the box agrees with the model's (quantisation to
             // 1/65535 of a mesh; survey and hostile variants are moved or
@@ -66,7 +73,12 @@ fn check(model: &str, v: Variant) -> (Outcome, u64, u64, String) {
                 let (a, b) = (conformance::world_box(&flat), world_box(&imp));
                 let tol = (a.1 - a.0).max_element() * 1e-3 + 1e-4;
                 if (a.0 - b.0).abs().max_element() > tol || (a.1 - b.1).abs().max_element() > tol {
-                    return (Outcome::Wrong(format!("box {b:?}, expected {a:?}")), n, have, String::new());
+                    return (
+                        Outcome::Wrong(format!("box {b:?}, expected {a:?}")),
+                        n,
+                        have,
+                        String::new(),
+                    );
                 }
             }
             (Outcome::Ok, n, have, imp.warnings.len().to_string())
@@ -76,10 +88,17 @@ fn check(model: &str, v: Variant) -> (Outcome, u64, u64, String) {
             if msg.contains(word) && msg.contains("conformance.glb") && !msg.contains('\n') {
                 (Outcome::Refused, 0, 0, msg)
             } else {
-                (Outcome::Wrong(format!("refusal without {word:?}: {msg}")), 0, 0, msg)
+                (
+                    Outcome::Wrong(format!("refusal without {word:?}: {msg}")),
+                    0,
+                    0,
+                    msg,
+                )
             }
         }
-        (Expect::Triangles(n), Err(e)) => (Outcome::Wrong(format!("refused: {e}")), n, 0, String::new()),
+        (Expect::Triangles(n), Err(e)) => {
+            (Outcome::Wrong(format!("refused: {e}")), n, 0, String::new())
+        }
         (Expect::Refusal(_), Ok(_)) => (Outcome::Wrong("accepted".into()), 0, 0, String::new()),
     }
 }
@@ -91,7 +110,9 @@ fn every_variant_of_every_model_is_ok_or_a_clean_refusal() {
     for model in MODELS {
         for &v in VARIANTS {
             let (outcome, expected, got, note) = check(model, v);
-            rows.push(format!("| {model} | {v:?} | {outcome:?} | {expected} | {got} | {note} |"));
+            rows.push(format!(
+                "| {model} | {v:?} | {outcome:?} | {expected} | {got} | {note} |"
+            ));
             if !matches!(outcome, Outcome::Ok | Outcome::Refused) {
                 bad.push(format!("{model} {v:?}: {outcome:?}"));
             }
@@ -132,11 +153,17 @@ fn a_survey_coordinate_model_keeps_millimetres() {
     // A 0.1 m box at (5,000 km, 3,000 km): every vertex must come back to
     // within 1 mm in world coordinates.
     let cube: Vec<[f32; 3]> = (0..8)
-        .map(|k| [(k & 1) as f32 * 0.1, ((k >> 1) & 1) as f32 * 0.1, ((k >> 2) & 1) as f32 * 0.1])
+        .map(|k| {
+            [
+                (k & 1) as f32 * 0.1,
+                ((k >> 1) & 1) as f32 * 0.1,
+                ((k >> 2) & 1) as f32 * 0.1,
+            ]
+        })
         .collect();
     let idx: Vec<u32> = vec![
-        0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1,
-        5, 7, 1, 7, 3,
+        0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4,
+        1, 5, 7, 1, 7, 3,
     ];
     let flat = conformance::Flat {
         meshes: vec![vec![conformance::Prim {
@@ -144,7 +171,10 @@ fn a_survey_coordinate_model_keeps_millimetres() {
             normals: None,
             indices: idx,
         }]],
-        placements: vec![(0, glam::Mat4::IDENTITY), (0, glam::Mat4::from_translation(Vec3::new(0.25, 0.0, 0.0)))],
+        placements: vec![
+            (0, glam::Mat4::IDENTITY),
+            (0, glam::Mat4::from_translation(Vec3::new(0.25, 0.0, 0.0))),
+        ],
     };
     let (bytes, _) = conformance::write(&flat, Variant::Survey);
     let imp = import::load_slice(&bytes, Path::new("."), Path::new("survey.glb")).unwrap();
@@ -160,7 +190,10 @@ fn a_survey_coordinate_model_keeps_millimetres() {
                 .iter()
                 .map(|q| (got - (at + Vec3::from(*q).as_dvec3())).abs().max_element())
                 .fold(f64::INFINITY, f64::min);
-            assert!(err < 1e-3, "vertex {got} is {err} m from the nearest true vertex");
+            assert!(
+                err < 1e-3,
+                "vertex {got} is {err} m from the nearest true vertex"
+            );
         }
     }
     // And through a built scene file: the origin is in the header.
@@ -173,5 +206,50 @@ fn a_survey_coordinate_model_keeps_millimetres() {
     assert_eq!(scene.meta().origin, imp.origin);
     let root = scene.skeleton().root().unwrap();
     let width = root.bbox_max[0] - root.bbox_min[0];
-    assert!((width - 0.35).abs() < 1e-3, "scene width {width}, expected 0.35 m");
+    assert!(
+        (width - 0.35).abs() < 1e-3,
+        "scene width {width}, expected 0.35 m"
+    );
+}
+
+/// Files that gltfpack and gltf-transform wrote (`tests/data/real/`): the
+/// count matches gltf-transform's own, and the box the plain model's;
+/// Draco is refused with what to do.
+#[test]
+fn real_tool_exports_import_with_the_independent_count_and_box() {
+    let dir = data_dir().join("real");
+    let list = std::fs::read_to_string(dir.join("expected.tsv")).unwrap();
+    let mut checked = 0;
+    for line in list.lines() {
+        let (name, count) = line.split_once('\t').unwrap();
+        let count: u64 = count.parse().unwrap();
+        let path = dir.join(name);
+        let got = import::load(&path);
+        if name.contains("draco") {
+            let e = got.unwrap_err().to_string();
+            assert!(
+                e.contains("KHR_draco_mesh_compression") && e.contains("meshopt"),
+                "{e}"
+            );
+            checked += 1;
+            continue;
+        }
+        let imp = got.unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(imp.instanced_source_triangles(), count, "{name}");
+        let plain = match name.split('.').next().unwrap() {
+            "2CylinderEngine" => "2CylinderEngine/2CylinderEngine.gltf".to_string(),
+            stem => format!("{stem}.glb"),
+        };
+        let (a, b) = (
+            conformance::world_box(&conformance::read_flat(&data_dir().join(&plain))),
+            world_box(&imp),
+        );
+        let tol = (a.1 - a.0).max_element() * 2e-3;
+        assert!(
+            (a.0 - b.0).abs().max_element() < tol && (a.1 - b.1).abs().max_element() < tol,
+            "{name}: box {b:?}, the plain model's {a:?}"
+        );
+        checked += 1;
+    }
+    assert_eq!(checked, 12);
 }

@@ -18,6 +18,7 @@ use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
 use crate::Args;
+use crate::build::Building;
 use crate::controls::{Controls, Held};
 use crate::gfx::Gfx;
 use crate::session::{Session, Settings};
@@ -57,7 +58,9 @@ fn initial_settings(a: &Args) -> Result<Settings> {
     };
     params.check()?;
     // The fraction is fixed once the scene's size is known.
-    engine::cli::parse_budget(&a.budget, 1 << 30)?;
+    if a.budget.trim() != "auto" {
+        engine::cli::parse_budget(&a.budget, 1 << 30)?;
+    }
     Ok(Settings {
         mode,
         budget_fraction: 0.08,
@@ -96,6 +99,17 @@ struct App {
     /// When the overlay is next repainted (it is cached between).
     ui_due: Instant,
     ui_dirty: bool,
+    /// A model being built into the cache before it opens.
+    building: Option<Building>,
+    /// The selected element and where the left button went down.
+    selection: Option<crate::picking::Selection>,
+    press: Option<(f64, f64)>,
+    /// `--pick` done; when the first complete frame was seen.
+    picked: bool,
+    complete_at: Option<u64>,
+    started: Instant,
+    /// Whether the last frame was complete, and how many reps were still loading.
+    complete: Option<(bool, u32)>,
 }
 
 impl App {
@@ -137,17 +151,71 @@ impl App {
             open_failed: None,
             ui_due: Instant::now(),
             ui_dirty: true,
+            building: None,
+            selection: None,
+            press: None,
+            picked: false,
+            complete_at: None,
+            started: Instant::now(),
+            complete: None,
         }
     }
 
     fn report(&mut self, msg: String) {
         tracing::error!("{msg}");
         self.error = Some(msg);
+        // Shown at once, not at the next scheduled repaint.
+        self.ui_dirty = true;
     }
 
+    /// Opens a scene file, or starts building a model into the cache (it
+    /// opens when the build is done).
     fn open(&mut self, path: &Path) {
+        if crate::build::is_model(path) {
+            self.session = None;
+            self.selection = None;
+            self.error = None;
+            self.building = Some(Building::start(path, self.args.cache.as_deref()));
+            self.ui_dirty = true;
+            return;
+        }
+        self.open_scene(path);
+    }
+
+    /// Opens a built model when its build has finished.
+    fn poll_build(&mut self) {
+        let Some(b) = &self.building else { return };
+        if !b.finished() {
+            return;
+        }
+        let b = self.building.take().expect("checked above");
+        let input = b.input.clone();
+        match b.join() {
+            Ok((cached, secs)) => {
+                println!(
+                    "{}: {} {} in {secs:.2} s",
+                    input.display(),
+                    if cached.hit {
+                        "cached scene"
+                    } else {
+                        "built into"
+                    },
+                    cached.scene.display()
+                );
+                self.open_scene(&cached.scene);
+            }
+            Err(e) => {
+                let msg = format!("cannot open {}: {e}", input.display());
+                self.open_failed = Some(msg.clone());
+                self.report(msg);
+            }
+        }
+    }
+
+    fn open_scene(&mut self, path: &Path) {
         let Some(gfx) = &self.gfx else { return };
         self.session = None;
+        self.selection = None;
         let size = (gfx.config.width, gfx.config.height);
         let budget = Some(self.args.budget.as_str());
         match Session::open(
@@ -230,6 +298,7 @@ impl App {
     }
 
     fn redraw(&mut self, event_loop: &ActiveEventLoop) {
+        self.poll_build();
         let now = Instant::now();
         let dt = (now - self.last).as_secs_f32();
         self.last = now;
@@ -300,6 +369,22 @@ impl App {
             let raw = gfx.egui_state.take_egui_input(&gfx.window);
             let view = ui::View {
                 scene: self.session.as_ref().and_then(|s| s.path.to_str()),
+                building: self.building.as_ref().map(Building::status),
+                selection: self.selection.as_ref(),
+                highlight: match (&self.selection, &self.session) {
+                    (Some(sel), Some(s)) => {
+                        let c = s.renderer.config();
+                        crate::picking::box_edges(
+                            &pose,
+                            (c.width, c.height),
+                            sel.scene_min,
+                            sel.scene_max,
+                        )
+                    }
+                    _ => Vec::new(),
+                },
+                complete: self.complete,
+                pixels_per_point: gfx.egui_ctx.pixels_per_point(),
                 error: self.error.as_deref(),
                 settings: self.session.as_ref().map(|s| s.settings),
                 budget_bytes: self.session.as_ref().map_or(0, |s| s.budget_bytes()),
@@ -346,6 +431,26 @@ impl App {
             self.report(p);
         }
         let loop_ms = now.elapsed().as_secs_f64() * 1e3;
+        if let Some(m) = &metrics {
+            self.after_frame(m, &pose);
+            if self.args.exit_when_complete
+                && self.complete_at.is_some_and(|f| self.frames > f)
+                && (self.args.pick.is_none() || self.picked)
+            {
+                if let Some(p) = &self.args.screenshot
+                    && self.screenshot_to.is_none()
+                    && self.complete_at.is_some_and(|f| self.frames == f + 1)
+                {
+                    // One more frame, so that the screenshot shows the pick.
+                    self.screenshot_to = Some(p.clone());
+                } else {
+                    exiting = true;
+                }
+            }
+        }
+        if self.args.exit_when_complete && self.open_failed.is_some() {
+            exiting = true;
+        }
         if let Some(m) = metrics {
             if let Err(e) = self.log_frame(&m, loop_ms) {
                 self.fatal = Some(e);
@@ -361,6 +466,64 @@ impl App {
         if exiting {
             event_loop.exit();
         }
+    }
+
+    /// Tracks completeness, the first complete frame and `--pick`.
+    fn after_frame(&mut self, m: &engine::metrics::FrameMetrics, pose: &Pose) {
+        let loading = m.late_reps + m.vdt_misses;
+        let complete = m.substituted == 0 && loading == 0 && m.read_errors == 0;
+        if self.complete != Some((complete, loading)) {
+            self.ui_dirty = true;
+        }
+        self.complete = Some((complete, loading));
+        if complete && self.complete_at.is_none() {
+            self.complete_at = Some(self.frames);
+            println!(
+                "first complete frame: frame {} at {:.2} s after start",
+                self.frames,
+                self.started.elapsed().as_secs_f64()
+            );
+        }
+        if complete
+            && !self.picked
+            && let Some((x, y)) = self.args.pick
+        {
+            self.picked = true;
+            self.pick_at(pose, x, y);
+        }
+        if self.selection.is_some() {
+            // The highlight follows the camera.
+            self.ui_dirty = true;
+        }
+    }
+
+    /// Selects the element under pixel `(x, y)`, and prints it.
+    fn pick_at(&mut self, pose: &Pose, x: f32, y: f32) {
+        let Some(s) = &mut self.session else { return };
+        match s.pick(pose, x, y) {
+            Ok(Some(sel)) => {
+                let (o, d) = pose.ray(s.renderer.config().width, s.renderer.config().height, x, y);
+                println!(
+                    "picked at {x},{y}: {} (mesh {}, object {:?}, node {}); extras {}; world box {:?} .. {:?}; ray {:?} {:?}",
+                    sel.name,
+                    sel.mesh_name.as_deref().unwrap_or("-"),
+                    sel.object,
+                    sel.node,
+                    sel.extras.as_deref().unwrap_or("-"),
+                    sel.world_min,
+                    sel.world_max,
+                    o.to_array(),
+                    d.to_array()
+                );
+                self.selection = Some(sel);
+            }
+            Ok(None) => {
+                println!("picked at {x},{y}: nothing");
+                self.selection = None;
+            }
+            Err(e) => self.report(format!("pick: {e}")),
+        }
+        self.ui_dirty = true;
     }
 
     /// Streams one frame to `--csv` and its `-loop.csv` (opened at the
@@ -386,6 +549,9 @@ impl App {
     fn apply(&mut self, a: ui::Actions) {
         if let Some(p) = a.open {
             self.open(Path::new(p.trim()));
+        }
+        if a.clear_selection {
+            self.selection = None;
         }
         if let (Some(s), Some(sess), Some(gfx)) = (a.settings, &mut self.session, &self.gfx) {
             if let Err(e) = sess.apply(&gfx.ctx, s) {
@@ -497,6 +663,22 @@ impl ApplicationHandler for App {
             } => {
                 self.looking = state == ElementState::Pressed && !consumed;
             }
+            WindowEvent::MouseInput {
+                state,
+                button: MouseButton::Left,
+                ..
+            } if !consumed => match state {
+                ElementState::Pressed => self.press = self.cursor,
+                ElementState::Released => {
+                    // A click, not a drag: pick.
+                    if let (Some(p), Some(c)) = (self.press.take(), self.cursor)
+                        && (p.0 - c.0).abs() + (p.1 - c.1).abs() < 5.0
+                    {
+                        let pose = self.frozen.unwrap_or_else(|| self.controls.pose());
+                        self.pick_at(&pose, c.0 as f32, c.1 as f32);
+                    }
+                }
+            },
             WindowEvent::CursorMoved { position, .. } => {
                 let p = (position.x, position.y);
                 if self.looking

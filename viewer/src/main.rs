@@ -13,9 +13,11 @@
 //! the log; the viewer stays usable.
 
 mod app;
+mod build;
 mod controls;
 mod gfx;
 mod overlay;
+mod picking;
 mod session;
 mod ui;
 
@@ -33,13 +35,21 @@ use clap::Parser;
     about = "Walk through an out-of-core HLOD scene"
 )]
 pub struct Args {
-    /// Scene file (`hlod-build build` output); can also be opened from the overlay.
+    /// Scene file (`hlod-build build` output), or a glTF model (`.glb`,
+    /// `.gltf`) which is built into the cache first (reused while the model
+    /// and the build parameters are unchanged); can also be opened from the overlay.
     pub scene: Option<PathBuf>,
+    /// Build cache directory for models opened directly (default:
+    /// $HLOD_CACHE_DIR, else $XDG_CACHE_HOME/hlod, else ~/.cache/hlod).
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
     /// incore, nopre or pre.
     #[arg(long, default_value = "pre")]
     pub mode: String,
-    /// Memory footprint: bytes (KiB/MiB/GiB) or a percentage of the rep data.
-    #[arg(long, default_value = "8%")]
+    /// Memory footprint: `auto` (all the rep data up to 1 GiB and a quarter
+    /// of this machine's memory, never below what the scene's minimal front
+    /// needs), bytes (KiB/MiB/GiB) or a percentage of the rep data.
+    #[arg(long, default_value = "auto")]
     pub budget: String,
     /// Error tolerance ε in pixels.
     #[arg(long, default_value_t = 2.0, value_parser = in_range(0.01f32, 10_000.0))]
@@ -67,6 +77,15 @@ pub struct Args {
     /// Quit after this many frames.
     #[arg(long)]
     pub exit_after: Option<u64>,
+    /// Quit at the first complete frame (nothing missing, nothing
+    /// substituted, nothing still loading), after `--pick`; prints the time
+    /// to it from the start.
+    #[arg(long)]
+    pub exit_when_complete: bool,
+    /// Click pixel X,Y (from the top left) once the view is complete, as a
+    /// left click would: the element there is selected and printed.
+    #[arg(long, value_parser = parse_pixel)]
+    pub pick: Option<(f32, f32)>,
     /// Save the last frame (with the overlay) as PNG at exit.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
@@ -83,6 +102,20 @@ pub struct Args {
     /// Overlay refreshes per second (it is cached in between; input refreshes it at once).
     #[arg(long, default_value_t = 2.0, value_parser = in_range(0.1f64, 1000.0))]
     pub overlay_hz: f64,
+}
+
+fn parse_pixel(s: &str) -> Result<(f32, f32), String> {
+    let (x, y) = s
+        .split_once(',')
+        .ok_or_else(|| format!("{s:?}: expected X,Y"))?;
+    let p = |v: &str| {
+        v.trim()
+            .parse::<f32>()
+            .ok()
+            .filter(|v| (0.0..=8192.0).contains(v))
+            .ok_or_else(|| format!("{s:?}: coordinates must be pixels in 0..=8192"))
+    };
+    Ok((p(x)?, p(y)?))
 }
 
 fn main() -> ExitCode {

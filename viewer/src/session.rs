@@ -34,6 +34,10 @@ pub struct Session {
     walk: Option<Walkthrough>,
     pub renderer: GpuRenderer,
     pub settings: Settings,
+    /// World position of the scene's origin (from its header).
+    pub origin: [f64; 3],
+    /// The scene file and its object section, opened at the first pick.
+    picker: Option<crate::picking::Picker>,
 }
 
 impl std::fmt::Debug for Session {
@@ -65,10 +69,14 @@ impl Session {
             .map_err(|e| named(&e))
             .and_then(|src| SceneFile::from_source(src).map_err(|e| named(&e)))?;
         let skeleton = Arc::new(scene.skeleton().clone());
+        let origin = scene.meta().origin;
         let data_bytes: u64 = skeleton.reps.iter().map(|r| u64::from(r.len)).sum();
         if let Some(b) = budget {
-            let bytes =
-                engine::cli::parse_budget(b, data_bytes.max(1)).map_err(|e| e.to_string())?;
+            let bytes = if b.trim() == "auto" {
+                engine::cli::auto_budget(&skeleton)
+            } else {
+                engine::cli::parse_budget(b, data_bytes.max(1)).map_err(|e| e.to_string())?
+            };
             settings.budget_fraction = (bytes as f64 / data_bytes.max(1) as f64).clamp(1e-6, 1.0);
         }
         let root = &skeleton.nodes[0];
@@ -90,7 +98,25 @@ impl Session {
             walk: Some(walk),
             renderer,
             settings,
+            origin,
+            picker: None,
         })
+    }
+
+    /// The element under pixel `(x, y)` of the current view from `pose`.
+    pub fn pick(
+        &mut self,
+        pose: &engine::camera::Pose,
+        x: f32,
+        y: f32,
+    ) -> Result<Option<crate::picking::Selection>, String> {
+        if self.picker.is_none() {
+            let p = crate::picking::Picker::open(&self.path, &self.file)?;
+            self.picker = Some(p);
+        }
+        let cfg = *self.renderer.config();
+        let picker = self.picker.as_ref().expect("opened above");
+        picker.pick(pose, (cfg.width, cfg.height), x, y, self.origin)
     }
 
     /// One frame: the front (and its loads) for `front_pose`, drawn from

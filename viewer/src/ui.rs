@@ -38,11 +38,20 @@ pub struct Actions {
     pub toggle_record: bool,
     pub screenshot: bool,
     pub frame_all: bool,
+    pub clear_selection: bool,
 }
 
 /// What the overlay shows besides the samples.
 pub struct View<'a> {
     pub scene: Option<&'a str>,
+    /// A model being built: the status line and the fraction done.
+    pub building: Option<(String, f32)>,
+    pub selection: Option<&'a crate::picking::Selection>,
+    /// The selection's box edges, in pixels.
+    pub highlight: Vec<[(f32, f32); 2]>,
+    /// Whether the last frame was complete, and the reps still loading.
+    pub complete: Option<(bool, u32)>,
+    pub pixels_per_point: f32,
     pub error: Option<&'a str>,
     pub settings: Option<Settings>,
     pub budget_bytes: u64,
@@ -80,6 +89,7 @@ pub fn draw(
     hist: &VecDeque<Sample>,
 ) -> Actions {
     let mut act = Actions::default();
+    notices(ctx, v, &mut act);
     egui::Window::new("hlod-view")
         .default_pos([8.0, 8.0])
         .default_width(340.0)
@@ -98,6 +108,15 @@ pub fn draw(
                 return;
             };
             ui.label(v.scene.unwrap_or(""));
+            match v.complete {
+                Some((true, _)) => {
+                    ui.colored_label(egui::Color32::from_rgb(120, 220, 120), "view complete: nothing missing, nothing substituted");
+                }
+                Some((false, n)) => {
+                    ui.colored_label(egui::Color32::from_rgb(255, 200, 80), format!("loading: {n} reps still coming, coarser ones shown"));
+                }
+                None => {}
+            }
             if let Some(last) = hist.back() {
                 let n = hist.len().max(1) as f64;
                 let mean = hist.iter().map(|x| x.loop_ms).sum::<f64>() / n;
@@ -204,4 +223,70 @@ pub fn draw(
             }
         });
     act
+}
+
+/// What must not be missed: a build's progress and an error, centred; the
+/// selected element beside, and its box drawn over the scene.
+fn notices(ctx: &egui::Context, v: &View<'_>, act: &mut Actions) {
+    if let Some((text, frac)) = &v.building {
+        egui::Window::new("Opening the model")
+            .anchor(egui::Align2::CENTER_CENTER, [0.0, 0.0])
+            .collapsible(false)
+            .resizable(false)
+            .show(ctx, |ui| {
+                ui.label(text);
+                ui.add(egui::ProgressBar::new(*frac).show_percentage());
+                ui.label("The scene is built once and cached; the next open is immediate.");
+            });
+    }
+    if let Some(e) = v.error {
+        egui::Window::new("Cannot show the scene")
+            .anchor(egui::Align2::CENTER_BOTTOM, [0.0, -24.0])
+            .collapsible(false)
+            .resizable(false)
+            .frame(
+                egui::Frame::window(&ctx.global_style()).fill(egui::Color32::from_rgb(90, 20, 20)),
+            )
+            .show(ctx, |ui| {
+                ui.colored_label(egui::Color32::WHITE, egui::RichText::new(e).size(16.0));
+            });
+    }
+    let Some(sel) = v.selection else { return };
+    let ppp = v.pixels_per_point.max(0.1);
+    let painter = ctx.layer_painter(egui::LayerId::new(
+        egui::Order::Background,
+        egui::Id::unique("highlight"),
+    ));
+    let stroke = egui::Stroke::new(2.0, egui::Color32::from_rgb(255, 230, 0));
+    for [a, b] in &v.highlight {
+        painter.line_segment(
+            [
+                egui::pos2(a.0 / ppp, a.1 / ppp),
+                egui::pos2(b.0 / ppp, b.1 / ppp),
+            ],
+            stroke,
+        );
+    }
+    egui::Window::new("Selected")
+        .anchor(egui::Align2::RIGHT_TOP, [-8.0, 8.0])
+        .default_width(300.0)
+        .show(ctx, |ui| {
+            ui.heading(&sel.name);
+            if let Some(m) = &sel.mesh_name {
+                ui.label(format!("mesh: {m}"));
+            }
+            if let Some(k) = sel.object {
+                ui.label(format!("object {k}, leaf node {}", sel.node));
+            }
+            if let Some(x) = &sel.extras {
+                ui.label(format!("extras: {x}"));
+            }
+            let f = |p: [f64; 3]| format!("{:.3}, {:.3}, {:.3}", p[0], p[1], p[2]);
+            ui.label(format!("box min {}", f(sel.world_min)));
+            ui.label(format!("box max {}", f(sel.world_max)));
+            ui.label(format!("hit {}", f(sel.point)));
+            if ui.button("Clear").clicked() {
+                act.clear_selection = true;
+            }
+        });
 }

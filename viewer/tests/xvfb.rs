@@ -161,3 +161,162 @@ fn a_scene_that_cannot_open_shows_the_error_keeps_running_and_exits_non_zero() {
     std::fs::copy(d.join("err.png"), artefacts().join("viewer-error.png")).unwrap();
     assert!(img.coverage() > 0.01, "the overlay with the error is drawn");
 }
+
+fn fzk_haus() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/AC14-FZK-Haus.glb")
+}
+
+#[test]
+fn opens_a_glb_directly_builds_it_once_and_shows_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = fzk_haus();
+    let args = |shot: &str| {
+        vec![
+            model.to_str().unwrap().to_string(),
+            "--cache".into(),
+            "cache".into(),
+            "--exit-when-complete".into(),
+            "--screenshot".into(),
+            shot.into(),
+            "--width".into(),
+            "800".into(),
+            "--height".into(),
+            "450".into(),
+        ]
+    };
+    let a1 = args("first.png");
+    let out = view(d, &a1.iter().map(String::as_str).collect::<Vec<_>>());
+    let (so, se) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{se}");
+    assert!(so.contains("built into"), "{so}");
+    assert!(so.contains("first complete frame"), "{so}");
+    let img = RgbaImage::load_png(&d.join("first.png")).unwrap();
+    std::fs::copy(d.join("first.png"), artefacts().join("viewer-open-glb.png")).unwrap();
+    let cov = scene_coverage(&img);
+    assert!(cov > 0.03, "the model is not visible ({cov})");
+    // The second open is a cache hit, and shows the same.
+    let a2 = args("second.png");
+    let out = view(d, &a2.iter().map(String::as_str).collect::<Vec<_>>());
+    let so = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success());
+    assert!(so.contains("cached scene"), "{so}");
+    assert_eq!(std::fs::read_dir(d.join("cache")).unwrap().count(), 1);
+    let cov2 = scene_coverage(&RgbaImage::load_png(&d.join("second.png")).unwrap());
+    assert!((cov2 - cov).abs() < 0.01, "{cov} vs {cov2}");
+}
+
+/// The element nearest along a ray, by brute force over the model's
+/// triangles as the importer reads them (not through the scene file).
+fn nearest_by_brute_force(model: &Path, o: Vec3, d: Vec3) -> Option<String> {
+    let imp = hlod_builder::import::load(model).unwrap();
+    let origin = glam::DVec3::from(imp.origin);
+    let mut best: Option<(f32, String)> = None;
+    for inst in &imp.instances {
+        let Some(m) = &imp.meshes[inst.mesh] else {
+            continue;
+        };
+        let w: Vec<Vec3> = m
+            .positions
+            .iter()
+            .map(|p| {
+                (inst.transform.transform_point3(Vec3::from(*p)).as_dvec3() + origin).as_vec3()
+            })
+            .collect();
+        for t in m.indices.chunks_exact(3) {
+            let hit = engine::pick::ray_triangle(
+                o,
+                d,
+                w[t[0] as usize],
+                w[t[1] as usize],
+                w[t[2] as usize],
+            );
+            if let Some(h) = hit
+                && best.as_ref().is_none_or(|b| h < b.0)
+            {
+                best = Some((h, inst.name.clone()));
+            }
+        }
+    }
+    best.map(|b| b.1)
+}
+
+#[test]
+fn picks_the_element_at_a_known_pixel_and_shows_its_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = fzk_haus();
+    let mut names = Vec::new();
+    for px in ["400,225", "330,260", "470,200"] {
+        let out = view(
+            d,
+            &[
+                model.to_str().unwrap(),
+                "--cache",
+                "cache",
+                "--exit-when-complete",
+                "--pick",
+                px,
+                "--screenshot",
+                "pick.png",
+                "--width",
+                "800",
+                "--height",
+                "450",
+            ],
+        );
+        let so = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let line = so
+            .lines()
+            .find(|l| l.starts_with("picked at"))
+            .unwrap_or_else(|| panic!("{so}"));
+        assert!(!line.contains("nothing"), "{line}");
+        // "picked at X,Y: NAME (mesh …" and "ray [o] [d]" at the end.
+        let name = line
+            .split_once(": ")
+            .unwrap()
+            .1
+            .split(" (mesh ")
+            .next()
+            .unwrap()
+            .to_string();
+        let nums: Vec<f32> = line
+            .rsplit_once("ray ")
+            .unwrap()
+            .1
+            .replace(['[', ']', ','], " ")
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let (o, dir_) = (
+            Vec3::new(nums[0], nums[1], nums[2]),
+            Vec3::new(nums[3], nums[4], nums[5]),
+        );
+        let expected = nearest_by_brute_force(&model, o, dir_);
+        assert_eq!(Some(name.clone()), expected, "pixel {px}");
+        names.push(name);
+    }
+    std::fs::copy(d.join("pick.png"), artefacts().join("viewer-pick.png")).unwrap();
+    // The overlay shows the selection: its panel is drawn at the top right.
+    let img = RgbaImage::load_png(&d.join("pick.png")).unwrap();
+    let panel = (img.width - 200..img.width - 20)
+        .filter(|&x| {
+            let p = img.pixel(x, 40);
+            (0..3)
+                .map(|c| p[c].abs_diff([23u8, 26, 31][c]))
+                .max()
+                .unwrap()
+                > 12
+        })
+        .count();
+    assert!(panel > 100, "no selection panel ({panel})");
+    assert!(names.iter().any(|n| n.contains("Ifc")), "{names:?}");
+}

@@ -268,7 +268,9 @@ pub enum FormatError {
     Io(std::io::Error),
     #[error("not a scene file (bad magic {0:02x?})")]
     BadMagic([u8; 8]),
-    #[error("unsupported format version {found} (this build reads {OLDEST_VERSION} to {VERSION}): rebuild the scene with this hlod-build")]
+    #[error(
+        "unsupported format version {found} (this build reads {OLDEST_VERSION} to {VERSION}): rebuild the scene with this hlod-build"
+    )]
     UnsupportedVersion { found: u32 },
     #[error("file truncated: {what} needs bytes up to {need}, file has {have}")]
     Truncated {

@@ -113,7 +113,9 @@ impl ObjectTable {
         let bad = |s: String| FormatError::BadHeader(format!("object section: {s}"));
         let hsize = size_of::<ObjectsHeader>();
         let h: ObjectsHeader = bytemuck::pod_read_unaligned(
-            bytes.get(..hsize).ok_or_else(|| bad("shorter than its header".into()))?,
+            bytes
+                .get(..hsize)
+                .ok_or_else(|| bad("shorter than its header".into()))?,
         );
         if h.magic != OBJECTS_MAGIC {
             return Err(bad("bad magic".into()));

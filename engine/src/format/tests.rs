@@ -211,7 +211,16 @@ fn origin_and_object_section_round_trip_and_are_checked() {
         .find(|&n| skeleton.nodes[n as usize].is_leaf())
         .unwrap();
     assert!(t.object_at(&skeleton, leaf, 0).is_some());
-    let runs = vec![Run { object: 1, tri_end: 2 }, Run { object: 0, tri_end: 5 }];
+    let runs = vec![
+        Run {
+            object: 1,
+            tri_end: 2,
+        },
+        Run {
+            object: 0,
+            tri_end: 5,
+        },
+    ];
     let mut merged = skeleton.clone();
     merged.nodes[leaf as usize].object = NONE;
     let t2 = ObjectTable::decode(&ObjectTable::encode(&infos, &[(leaf, runs)]), &merged).unwrap();

@@ -63,7 +63,9 @@ impl<'a> Buffers<'a> {
         Self {
             doc,
             data,
-            decoded: (0..doc.buffer_views.len()).map(|_| OnceCell::new()).collect(),
+            decoded: (0..doc.buffer_views.len())
+                .map(|_| OnceCell::new())
+                .collect(),
         }
     }
 
@@ -194,8 +196,7 @@ fn check_count(acc: &Accessor, bufs: &Buffers) -> Result<usize, String> {
 
 /// Reads accessor `a` as `N`-component float vectors.
 pub fn read_f32<const N: usize>(bufs: &Buffers, a: usize) -> Result<Vec<[f32; N]>, String> {
-    read(bufs, a, N, component_f32, 0.0)
-        .map_err(|e| format!("accessors[{a}]: {e}"))
+    read(bufs, a, N, component_f32, 0.0).map_err(|e| format!("accessors[{a}]: {e}"))
 }
 
 /// Reads accessor `a` as unsigned scalar indices.
@@ -260,19 +261,21 @@ fn read<T: Copy, const N: usize>(
                 .map(|m| m.byte_stride)
                 .or(view.byte_stride)
                 .unwrap_or(elem);
-            each_element(bytes, acc.byte_offset, stride, elem, count as u64, |_, b| {
-                out.push(decode(b))
-            })
+            each_element(
+                bytes,
+                acc.byte_offset,
+                stride,
+                elem,
+                count as u64,
+                |_, b| out.push(decode(b)),
+            )
             .map_err(|e| format!("bufferViews[{v}]: {e}"))?;
         }
         None => out.resize(count, [zero; N]),
     }
     if let Some(s) = &acc.sparse {
         if s.count > count as u64 {
-            return Err(format!(
-                "sparse.count {} exceeds count {count}",
-                s.count
-            ));
+            return Err(format!("sparse.count {} exceeds count {count}", s.count));
         }
         let it = &s.indices;
         let isize = match it.component_type {
@@ -287,12 +290,17 @@ fn read<T: Copy, const N: usize>(
         .map_err(|e| format!("sparse.indices: {e}"))?;
         let vbytes = bufs.view(s.values.buffer_view)?;
         let mut bad = None;
-        each_element(vbytes, s.values.byte_offset, elem, elem, s.count, |i, b| {
-            match out.get_mut(idx[i] as usize) {
+        each_element(
+            vbytes,
+            s.values.byte_offset,
+            elem,
+            elem,
+            s.count,
+            |i, b| match out.get_mut(idx[i] as usize) {
                 Some(slot) => *slot = decode(b),
                 None => bad = Some(idx[i]),
-            }
-        })
+            },
+        )
         .map_err(|e| format!("sparse.values: {e}"))?;
         if let Some(i) = bad {
             return Err(format!("sparse index {i} out of range of count {count}"));

@@ -180,7 +180,10 @@ impl Buffer {
     /// every view on it is decoded from elsewhere).
     pub fn is_fallback(&self) -> bool {
         let e = &self.extensions;
-        e.ext_meshopt.iter().chain(&e.khr_meshopt).any(|f| f.fallback)
+        e.ext_meshopt
+            .iter()
+            .chain(&e.khr_meshopt)
+            .any(|f| f.fallback)
     }
 }
 

@@ -61,7 +61,9 @@ pub fn decode(m: &Meshopt, src: &[u8]) -> Result<Vec<u8>, String> {
         "TRIANGLES" | "INDICES" => {
             let tri = m.mode == "TRIANGLES";
             if tri && !count.is_multiple_of(3) {
-                return Err(format!("TRIANGLES mode with count {count}, not a multiple of 3"));
+                return Err(format!(
+                    "TRIANGLES mode with count {count}, not a multiple of 3"
+                ));
             }
             match stride {
                 2 => {
@@ -82,7 +84,12 @@ pub fn decode(m: &Meshopt, src: &[u8]) -> Result<Vec<u8>, String> {
                     .map_err(|e| e.to_string())?;
                     v.into_iter().flat_map(u32::to_le_bytes).collect()
                 }
-                s => return Err(format!("{} mode with byteStride {s}, expected 2 or 4", m.mode)),
+                s => {
+                    return Err(format!(
+                        "{} mode with byteStride {s}, expected 2 or 4",
+                        m.mode
+                    ));
+                }
             }
         }
         mode => return Err(format!("unknown mode {mode:?}")),

@@ -179,8 +179,16 @@ pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported
     let data = load_buffers(&doc, bin, base_dir).map_err(&invalid)?;
     let bufs = access::Buffers::new(&doc, data);
     let mut out = Imported {
-        mesh_info: doc.meshes.iter().map(|m| (m.name.clone(), m.extras.clone())).collect(),
-        node_info: doc.nodes.iter().map(|n| (n.name.clone(), n.extras.clone())).collect(),
+        mesh_info: doc
+            .meshes
+            .iter()
+            .map(|m| (m.name.clone(), m.extras.clone()))
+            .collect(),
+        node_info: doc
+            .nodes
+            .iter()
+            .map(|n| (n.name.clone(), n.extras.clone()))
+            .collect(),
         ..Imported::default()
     };
     for m in 0..doc.meshes.len() {
@@ -188,7 +196,11 @@ pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported
         out.meshes.push(mesh);
         out.source_tris.push(source);
     }
-    let boxes: Vec<Option<Aabb>> = out.meshes.iter().map(|m| m.as_ref().map(Mesh::bounds)).collect();
+    let boxes: Vec<Option<Aabb>> = out
+        .meshes
+        .iter()
+        .map(|m| m.as_ref().map(Mesh::bounds))
+        .collect();
     let placed = nodes::place(&doc, &bufs, &boxes, &mut out.warnings).map_err(&invalid)?;
     if placed.is_empty() {
         return Err(ImportError::NoTriangles {
@@ -201,10 +213,13 @@ pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported
     out.instances = placed
         .into_iter()
         .map(|p| {
-            let base = p.node.and_then(|n| doc.nodes[n].name.clone()).unwrap_or_else(|| match p.node {
-                Some(n) => format!("nodes[{n}]"),
-                None => format!("meshes[{}]", p.mesh),
-            });
+            let base = p
+                .node
+                .and_then(|n| doc.nodes[n].name.clone())
+                .unwrap_or_else(|| match p.node {
+                    Some(n) => format!("nodes[{n}]"),
+                    None => format!("meshes[{}]", p.mesh),
+                });
             Instance {
                 mesh: p.mesh,
                 transform: (to_scene * p.world).as_mat4(),
@@ -264,7 +279,11 @@ fn no_triangles_why(doc: &doc::Doc, warnings: &[String]) -> String {
 /// The bytes of every buffer: the GLB BIN chunk, a data URI or an external
 /// file (read up to its declared length); a meshopt fallback buffer
 /// without a source is empty.
-fn load_buffers(doc: &doc::Doc, bin: Option<&[u8]>, base_dir: &Path) -> Result<Vec<Vec<u8>>, String> {
+fn load_buffers(
+    doc: &doc::Doc,
+    bin: Option<&[u8]>,
+    base_dir: &Path,
+) -> Result<Vec<Vec<u8>>, String> {
     let mut out = Vec::new();
     let mut bin = bin;
     for (i, buf) in doc.buffers.iter().enumerate() {
@@ -285,9 +304,8 @@ fn load_buffers(doc: &doc::Doc, bin: Option<&[u8]>, base_dir: &Path) -> Result<V
                         .map_err(|e| format!("buffers[{i}]: bad base64: {e}"))?
                 } else {
                     let file = base_dir.join(percent_decode(uri));
-                    read_buffer_file(&file, buf.byte_length).map_err(|e| {
-                        format!("buffers[{i}]: cannot read {}: {e}", file.display())
-                    })?
+                    read_buffer_file(&file, buf.byte_length)
+                        .map_err(|e| format!("buffers[{i}]: cannot read {}: {e}", file.display()))?
                 }
             }
         };
@@ -346,4 +364,22 @@ fn percent_decode(s: &str) -> String {
         i += 1;
     }
     String::from_utf8_lossy(&out).into_owned()
+}
+
+/// The external files a glTF's buffers name (resolved against `base_dir`),
+/// for keying a build cache by everything the model is made of; none for
+/// a file that does not parse (its build reports why).
+pub fn external_files(bytes: &[u8], base_dir: &Path) -> Vec<PathBuf> {
+    let Ok((json, _)) = doc::split(bytes) else {
+        return Vec::new();
+    };
+    let Ok(d) = doc::parse(json) else {
+        return Vec::new();
+    };
+    d.buffers
+        .iter()
+        .filter_map(|b| b.uri.as_deref())
+        .filter(|u| !u.starts_with("data:"))
+        .map(|u| base_dir.join(percent_decode(u)))
+        .collect()
 }

@@ -67,14 +67,10 @@ fn instances(bufs: &Buffers, i: usize, n: &Node) -> Result<Option<Vec<DMat4>>, S
         .flatten()
         .collect();
     let Some(&count) = counts.first() else {
-        return Err(what(
-            "no TRANSLATION, ROTATION or SCALE attribute".into(),
-        ));
+        return Err(what("no TRANSLATION, ROTATION or SCALE attribute".into()));
     };
     if counts.iter().any(|&c| c != count) {
-        return Err(what(format!(
-            "attributes of different counts {counts:?}"
-        )));
+        return Err(what(format!("attributes of different counts {counts:?}")));
     }
     let v3 = |a: [f32; 3]| DVec3::new(a[0].into(), a[1].into(), a[2].into());
     Ok(Some(
@@ -144,7 +140,9 @@ pub fn place(
     let n = doc.nodes.len();
     for (i, node) in doc.nodes.iter().enumerate() {
         if let Some(&c) = node.children.iter().find(|&&c| c >= n) {
-            return Err(format!("nodes[{i}].children: node {c} does not exist ({n} nodes)"));
+            return Err(format!(
+                "nodes[{i}].children: node {c} does not exist ({n} nodes)"
+            ));
         }
         if let Some(m) = node.mesh.filter(|&m| m >= doc.meshes.len()) {
             return Err(format!(
@@ -238,7 +236,11 @@ fn out_of_range(node: usize, instance: Option<usize>, world: &DMat4) -> String {
         Some(k) => format!("nodes[{node}] instance {k}"),
         None => format!("nodes[{node}]"),
     };
-    let scale = world.x_axis.truncate().length().max(world.y_axis.truncate().length());
+    let scale = world
+        .x_axis
+        .truncate()
+        .length()
+        .max(world.y_axis.truncate().length());
     if world.is_finite() {
         format!(
             "{at}: its transform (scale {scale:.3e}, translation {:.3e}) places the mesh beyond \
@@ -256,12 +258,16 @@ fn roots(doc: &Doc, warnings: &mut Vec<String>) -> Result<Vec<usize>, String> {
     let n = doc.nodes.len();
     let chosen = doc.scene.or((!doc.scenes.is_empty()).then_some(0));
     if let Some(s) = chosen {
-        let scene = doc
-            .scenes
-            .get(s)
-            .ok_or_else(|| format!("scene: scenes[{s}] does not exist ({} scenes)", doc.scenes.len()))?;
+        let scene = doc.scenes.get(s).ok_or_else(|| {
+            format!(
+                "scene: scenes[{s}] does not exist ({} scenes)",
+                doc.scenes.len()
+            )
+        })?;
         if let Some(&r) = scene.nodes.iter().find(|&&r| r >= n) {
-            return Err(format!("scenes[{s}].nodes: node {r} does not exist ({n} nodes)"));
+            return Err(format!(
+                "scenes[{s}].nodes: node {r} does not exist ({n} nodes)"
+            ));
         }
         if !scene.nodes.is_empty() {
             return Ok(scene.nodes.clone());

@@ -46,12 +46,15 @@ pub fn read_mesh(
             warnings.push(format!("{what}: non-finite positions, skipped"));
             continue;
         }
-        let normals = read_normals(bufs, prim.attributes.get("NORMAL").copied(), &what, warnings)?
-            .filter(|n| n.len() == positions.len() && n.iter().flatten().all(|c| c.is_finite()));
+        let normals = read_normals(
+            bufs,
+            prim.attributes.get("NORMAL").copied(),
+            &what,
+            warnings,
+        )?
+        .filter(|n| n.len() == positions.len() && n.iter().flatten().all(|c| c.is_finite()));
         let raw = match prim.indices {
-            Some(a) => {
-                access::read_indices(bufs, a).map_err(|e| format!("{what}.indices: {e}"))?
-            }
+            Some(a) => access::read_indices(bufs, a).map_err(|e| format!("{what}.indices: {e}"))?,
             None => (0..positions.len() as u32).collect(),
         };
         if let Some(&bad) = raw.iter().find(|&&i| i as usize >= positions.len()) {
@@ -105,7 +108,8 @@ fn read_normals(
     warnings: &mut Vec<String>,
 ) -> Result<Option<Vec<[f32; 3]>>, String> {
     let Some(a) = acc else { return Ok(None) };
-    let (t, dims) = access::shape(bufs.doc, a).map_err(|e| format!("{what}.attributes.NORMAL: {e}"))?;
+    let (t, dims) =
+        access::shape(bufs.doc, a).map_err(|e| format!("{what}.attributes.NORMAL: {e}"))?;
     let normalized = bufs.doc.accessors[a].normalized;
     if dims != Some(3) || !(t == F32 || (matches!(t, I8 | I16) && normalized)) {
         warnings.push(format!(
@@ -120,7 +124,11 @@ fn read_normals(
 
 fn to_rgba8(c: [f64; 4]) -> [u8; 4] {
     c.map(|x| {
-        let x = if x.is_finite() { x.clamp(0.0, 1.0) } else { 1.0 };
+        let x = if x.is_finite() {
+            x.clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
         (x * 255.0).round() as u8
     })
 }
@@ -130,7 +138,9 @@ fn read_colors(bufs: &Buffers, a: usize, base: [f64; 4], n: usize) -> Result<Vec
     let (t, dims) = access::shape(bufs.doc, a)?;
     let normalized = bufs.doc.accessors[a].normalized;
     if !(t == F32 || (matches!(t, U8 | U16) && normalized)) {
-        return Err(format!("accessors[{a}] is not float or normalized unsigned"));
+        return Err(format!(
+            "accessors[{a}] is not float or normalized unsigned"
+        ));
     }
     let rgba: Vec<[f32; 4]> = match dims {
         Some(3) => access::read_f32::<3>(bufs, a)?

@@ -1,0 +1,117 @@
+//! Models opened directly (`hlod-view MODEL.glb`): built into the cache on
+//! a background thread by the builder's own code
+//! ([`hlod_builder::cache::cached_scene`]), with the stage and the nodes
+//! done shown in the window, then opened as a scene.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Instant;
+
+use hlod_builder::cache::{Cached, cache_dir, cached_scene};
+
+/// Whether `path` is a glTF model rather than a scene file: by its first
+/// bytes (`glTF`, or JSON), else by its extension.
+pub fn is_model(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; 8];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| f.read(&mut head))
+        .unwrap_or(0);
+    if n >= 8 && head == engine::format::MAGIC {
+        return false;
+    }
+    let first = head[..n].iter().find(|b| !b.is_ascii_whitespace());
+    if head[..n].starts_with(b"glTF")
+        || first == Some(&b'{')
+        || head[..n].starts_with(b"\xEF\xBB\xBF")
+    {
+        return true;
+    }
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"))
+}
+
+/// Stage, nodes done, nodes in all.
+type Progress = Arc<Mutex<(String, u64, u64)>>;
+
+/// A build in progress.
+pub struct Building {
+    pub input: PathBuf,
+    progress: Progress,
+    started: Instant,
+    handle: JoinHandle<Result<(Cached, f64), String>>,
+}
+
+impl Building {
+    /// Starts building `input` (with the default build parameters) into
+    /// the cache in `dir` (or the default cache directory).
+    pub fn start(input: &Path, dir: Option<&Path>) -> Self {
+        let progress: Progress = Arc::new(Mutex::new(("starting".into(), 0, 0)));
+        let (p, inp, dir) = (progress.clone(), input.to_path_buf(), cache_dir(dir));
+        tracing::info!(
+            "building {} into the cache at {}",
+            input.display(),
+            dir.display()
+        );
+        let handle = std::thread::spawn(move || {
+            let t = Instant::now();
+            let report = move |stage: &str, done: u64, total: u64| {
+                if let Ok(mut g) = p.lock() {
+                    *g = (stage.to_string(), done, total);
+                }
+            };
+            cached_scene(&inp, &hlod_builder::BuildParams::default(), &dir, &report)
+                .map(|c| (c, t.elapsed().as_secs_f64()))
+                .map_err(|e| format!("{:#}", anyhow::Error::from(e)))
+        });
+        Self {
+            input: input.to_path_buf(),
+            progress,
+            started: Instant::now(),
+            handle,
+        }
+    }
+
+    pub fn finished(&self) -> bool {
+        self.handle.is_finished()
+    }
+
+    /// The build's result (a panic in it is an error, not the viewer's end).
+    pub fn join(self) -> Result<(Cached, f64), String> {
+        self.handle
+            .join()
+            .unwrap_or_else(|_| Err("the build stopped unexpectedly".into()))
+    }
+
+    /// What the overlay shows: "building NAME: stage (done/total), N s", and the fraction done.
+    pub fn status(&self) -> (String, f32) {
+        let (stage, done, total) = self
+            .progress
+            .lock()
+            .map(|g| g.clone())
+            .unwrap_or_else(|_| ("?".into(), 0, 0));
+        let name = self
+            .input
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let counts = if total > 0 {
+            format!(" ({done}/{total} nodes)")
+        } else {
+            String::new()
+        };
+        let frac = if total > 0 {
+            done as f32 / total as f32
+        } else {
+            0.0
+        };
+        (
+            format!(
+                "building {name}: {stage}{counts}, {:.1} s",
+                self.started.elapsed().as_secs_f64()
+            ),
+            frac,
+        )
+    }
+}

@@ -1,0 +1,167 @@
+//! Element picking in the viewer: a click casts a ray through the pixel
+//! ([`engine::pick`]) and the object section of the scene file names what
+//! it hit (glTF node and mesh names, `extras`, the world-space box).
+
+use std::path::Path;
+
+use engine::format::objects::ObjectTable;
+use engine::{FileSource, SceneFile};
+use glam::Vec3;
+use serde_json::Value;
+
+/// The scene file and its object section, opened at the first pick.
+pub struct Picker {
+    scene: SceneFile<FileSource>,
+    objects: ObjectTable,
+}
+
+/// What a click selected.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Selection {
+    pub object: Option<u32>,
+    pub node: u32,
+    /// The glTF node's name (or `nodes[i]`); the leaf's number when the
+    /// scene describes no objects (a version-1 file).
+    pub name: String,
+    pub mesh_name: Option<String>,
+    /// The node's `extras` (IFC exports carry GlobalId and type there), as JSON text.
+    pub extras: Option<String>,
+    /// World-space box.
+    pub world_min: [f64; 3],
+    pub world_max: [f64; 3],
+    /// The same box in scene coordinates, for the highlight.
+    pub scene_min: Vec3,
+    pub scene_max: Vec3,
+    /// The hit point in world coordinates.
+    pub point: [f64; 3],
+}
+
+impl Picker {
+    pub fn open(path: &Path, file: &std::fs::File) -> Result<Self, String> {
+        let named = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+        let scene = file
+            .try_clone()
+            .and_then(FileSource::from_file)
+            .map_err(|e| named(&e))
+            .and_then(|s| SceneFile::from_source(s).map_err(|e| named(&e)))?;
+        let objects = scene.read_objects().map_err(|e| named(&e))?;
+        Ok(Self { scene, objects })
+    }
+
+    /// The element under pixel `(x, y)` of a `size` viewport seen from `pose`.
+    pub fn pick(
+        &self,
+        pose: &engine::camera::Pose,
+        size: (u32, u32),
+        x: f32,
+        y: f32,
+        origin: [f64; 3],
+    ) -> Result<Option<Selection>, String> {
+        let (o, d) = pose.ray(size.0, size.1, x, y);
+        let Some(hit) =
+            engine::pick::pick(&self.scene, &self.objects, o, d).map_err(|e| e.to_string())?
+        else {
+            return Ok(None);
+        };
+        let world = |p: Vec3| -> [f64; 3] {
+            let p = p.as_dvec3();
+            [p.x + origin[0], p.y + origin[1], p.z + origin[2]]
+        };
+        let n = &self.scene.skeleton().nodes[hit.node as usize];
+        let (mut smin, mut smax) = (Vec3::from(n.bbox_min), Vec3::from(n.bbox_max));
+        let info: Option<Value> = hit
+            .object
+            .and_then(|k| self.objects.info(k))
+            .and_then(|t| serde_json::from_str(t).ok());
+        let field = |k: &str| info.as_ref().and_then(|v| v.get(k));
+        let boxed = |k: &str| -> Option<[f64; 3]> {
+            let a = field(k)?.as_array()?;
+            Some([
+                a.first()?.as_f64()?,
+                a.get(1)?.as_f64()?,
+                a.get(2)?.as_f64()?,
+            ])
+        };
+        let (wmin, wmax) = match (boxed("box_min"), boxed("box_max")) {
+            (Some(a), Some(b)) => {
+                let s = |w: [f64; 3]| {
+                    Vec3::new(
+                        (w[0] - origin[0]) as f32,
+                        (w[1] - origin[1]) as f32,
+                        (w[2] - origin[2]) as f32,
+                    )
+                };
+                (smin, smax) = (s(a), s(b));
+                (a, b)
+            }
+            _ => (world(smin), world(smax)),
+        };
+        let name = field("name")
+            .and_then(Value::as_str)
+            .map(str::to_string)
+            .unwrap_or_else(|| match hit.object {
+                Some(k) => format!("object {k}"),
+                None => format!("leaf node {}", hit.node),
+            });
+        Ok(Some(Selection {
+            object: hit.object,
+            node: hit.node,
+            name,
+            mesh_name: field("mesh_name")
+                .and_then(Value::as_str)
+                .map(str::to_string),
+            extras: field("extras").map(Value::to_string),
+            world_min: wmin,
+            world_max: wmax,
+            scene_min: smin,
+            scene_max: smax,
+            point: world(hit.point),
+        }))
+    }
+}
+
+/// The twelve edges of a box as pixel segments of the view from `pose`
+/// (edges crossing behind the eye are clipped to a near plane).
+pub fn box_edges(
+    pose: &engine::camera::Pose,
+    size: (u32, u32),
+    min: Vec3,
+    max: Vec3,
+) -> Vec<[(f32, f32); 2]> {
+    let corner = |k: usize| {
+        Vec3::new(
+            if k & 1 == 0 { min.x } else { max.x },
+            if k & 2 == 0 { min.y } else { max.y },
+            if k & 4 == 0 { min.z } else { max.z },
+        )
+    };
+    let near = 1e-3 * (max - min).length().max(1e-3);
+    let depth = |p: Vec3| (p - pose.position).dot(pose.forward());
+    let mut out = Vec::new();
+    for a in 0..8usize {
+        for bit in [1, 2, 4] {
+            let b = a | bit;
+            if b == a {
+                continue;
+            }
+            let (mut p, mut q) = (corner(a), corner(b));
+            let (dp, dq) = (depth(p), depth(q));
+            if dp < near && dq < near {
+                continue;
+            }
+            // Clip the part behind the near plane.
+            if dp < near {
+                p = p + (q - p) * ((near - dp) / (dq - dp));
+            } else if dq < near {
+                q = q + (p - q) * ((near - dq) / (dp - dq));
+            }
+            if let (Some(s), Some(t)) = (
+                pose.project(size.0, size.1, p),
+                pose.project(size.0, size.1, q),
+            ) {
+                out.push([(s.0, s.1), (t.0, t.1)]);
+            }
+        }
+    }
+    out
+}
