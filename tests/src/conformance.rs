@@ -55,7 +55,13 @@ pub fn read_flat(path: &Path) -> Flat {
         .buffers()
         .map(|b| match b.source() {
             gltf::buffer::Source::Bin => blob.take().unwrap(),
-            gltf::buffer::Source::Uri(u) => std::fs::read(path.parent().unwrap().join(u)).unwrap(),
+            gltf::buffer::Source::Uri(u) => match u.split_once(";base64,") {
+                Some((_, b64)) => {
+                    use base64::Engine as _;
+                    base64::engine::general_purpose::STANDARD.decode(b64).unwrap()
+                }
+                None => std::fs::read(path.parent().unwrap().join(u)).unwrap(),
+            },
         })
         .collect();
     let mut flat = Flat::default();

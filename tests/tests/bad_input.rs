@@ -227,3 +227,90 @@ fn fuzz_seeds_and_regressions_run_clean() {
     }
     assert!(ran >= 5, "the seeds are there ({ran})");
 }
+
+#[test]
+fn an_unsupported_required_extension_is_refused_first_in_one_short_line() {
+    // Draco required, and the rest broken too: the Draco line comes first.
+    let json = br#"{"asset":{"version":"2.0"},"extensionsRequired":["KHR_draco_mesh_compression"],
+        "extensionsUsed":["KHR_draco_mesh_compression"],"accessors":5,"meshes":[{"primitives":[]}]}"#;
+    let e = fails("draco.gltf", json).to_string();
+    assert!(e.contains("KHR_draco_mesh_compression") && e.contains("meshopt"), "{e}");
+    assert!(!e.contains('\n') && e.len() < 400, "one short line: {e}");
+    assert_eq!(e.matches("draco.gltf").count(), 1, "the file named once: {e}");
+    let other = br#"{"asset":{"version":"2.0"},"extensionsRequired":["ACME_teleport"]}"#;
+    let e = fails("acme.gltf", other).to_string();
+    assert!(e.contains("ACME_teleport"), "{e}");
+}
+
+#[test]
+fn no_renderable_triangles_says_why() {
+    let (p, i) = grid(2);
+    let e = fails("lines.gltf", tiny_gltf(&p, &i, 1, None).as_bytes()).to_string();
+    assert!(e.contains("meshes[0].primitives[0]") && e.contains("LINES"), "{e}");
+    let (mut p, i) = grid(2);
+    p[0][0] = f32::NAN;
+    let e = fails("nan.gltf", tiny_gltf(&p, &i, 4, None).as_bytes()).to_string();
+    assert!(e.contains("non-finite positions"), "{e}");
+    let (p, mut i) = grid(2);
+    i[4] = 999;
+    let e = fails("oor.gltf", tiny_gltf(&p, &i, 4, None).as_bytes()).to_string();
+    assert!(e.contains("index 999 out of range"), "{e}");
+}
+
+#[test]
+fn an_overflowing_transform_is_caught_at_import_naming_the_node() {
+    let (p, i) = grid(2);
+    let json = tiny_gltf(&p, &i, 4, None).replace(r#""nodes":[{"mesh":0}]"#, r#""nodes":[{"mesh":0,"scale":[1e30,1e30,1e30]}]"#);
+    let e = fails("huge.gltf", json.as_bytes()).to_string();
+    assert!(e.contains("nodes[0]") && e.contains("beyond"), "{e}");
+    assert!(!e.contains("invariant") && !e.contains("huge.hlod"), "{e}");
+}
+
+#[test]
+fn valid_files_the_old_importer_refused_now_build() {
+    let dir = tempfile::tempdir().unwrap();
+    let (p, i) = grid(3);
+    let base = tiny_gltf(&p, &i, 4, None);
+    // No min/max on POSITION; a scene without nodes; no scenes at all; a
+    // 400-deep node chain; a NORMAL of unsigned bytes (recomputed).
+    let no_minmax = {
+        let a = base.find(r#","min":"#).unwrap();
+        let m = base.find(r#""max":"#).unwrap();
+        let b = m + base[m..].find(']').unwrap() + 1;
+        format!("{}{}", &base[..a], &base[b..])
+    };
+    assert!(!no_minmax.contains("\"min\""));
+    let no_scene_nodes = base.replace(r#""scenes":[{"nodes":[0]}]"#, r#""scenes":[{}]"#);
+    let no_scenes = base.replace(r#""scene":0,"scenes":[{"nodes":[0]}],"#, "");
+    let chain: Vec<String> = (0..400)
+        .map(|k| if k == 399 { r#"{"mesh":0}"#.to_string() } else { format!(r#"{{"children":[{}]}}"#, k + 1) })
+        .collect();
+    let deep = base.replace(r#""nodes":[{"mesh":0}]"#, &format!(r#""nodes":[{}]"#, chain.join(",")));
+    let byte_normals = base.replace(
+        r#""attributes":{"POSITION":0}"#,
+        r#""attributes":{"POSITION":0,"NORMAL":2}"#,
+    ).replace(
+        r#"{"bufferView":1,"componentType":5125"#,
+        r#"{"bufferView":1,"componentType":5125"#,
+    ).replace(
+        r#""type":"SCALAR"}],"#,
+        &format!(r#""type":"SCALAR"}},{{"bufferView":0,"componentType":5121,"count":{},"type":"VEC3"}}],"#, p.len()),
+    );
+    for (name, json) in [
+        ("no-minmax.gltf", no_minmax),
+        ("no-scene-nodes.gltf", no_scene_nodes),
+        ("no-scenes.gltf", no_scenes),
+        ("deep.gltf", deep),
+        ("byte-normals.gltf", byte_normals),
+    ] {
+        let input = dir.path().join(name);
+        std::fs::write(&input, &json).unwrap();
+        let out = dir.path().join(format!("{name}.hlod"));
+        let stats = build_file(&input, &out, &BuildParams::default(), false)
+            .unwrap_or_else(|e| panic!("{name}: {e}\n{json}"));
+        assert_eq!(stats.input_triangles, 18, "{name}");
+        if name == "byte-normals.gltf" {
+            assert!(stats.warnings.iter().any(|w| w.contains("normals recomputed")), "{:?}", stats.warnings);
+        }
+    }
+}

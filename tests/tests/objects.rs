@@ -1,0 +1,59 @@
+//! The object section of a built BIM model: every object described by its
+//! glTF names and world box, and every triangle of a merged leaf's finest
+//! rep attributed to the object whose geometry it is.
+
+use e2e_tests::data_dir;
+use engine::format::{NONE, RepKind};
+use hlod_builder::build::{BuildParams, build_file};
+
+#[test]
+fn every_finest_triangle_lies_in_the_box_of_the_object_it_is_attributed_to() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = data_dir().join("Ifc2x3_Duplex_Architecture.glb");
+    let out = dir.path().join("duplex.hlod");
+    let stats = build_file(&input, &out, &BuildParams::default(), false).unwrap();
+    let scene = engine::SceneFile::open(&out).unwrap();
+    let table = scene.read_objects().unwrap();
+    assert_eq!(table.len() as u64, stats.objects);
+    let s = scene.skeleton();
+    let origin = glam::DVec3::from(scene.meta().origin);
+    let boxes: Vec<(glam::Vec3, glam::Vec3)> = (0..table.len() as u32)
+        .map(|k| {
+            let v: serde_json::Value = serde_json::from_str(table.info(k).unwrap()).unwrap();
+            assert!(v["name"].as_str().is_some_and(|n| !n.is_empty()), "{v}");
+            assert!(v["mesh_name"].is_string(), "{v}");
+            let b = |key: &str| {
+                let a: Vec<f64> = v[key].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+                (glam::DVec3::new(a[0], a[1], a[2]) - origin).as_vec3()
+            };
+            (b("box_min"), b("box_max"))
+        })
+        .collect();
+    let (mut merged, mut tris) = (0, 0u64);
+    for (i, n) in s.nodes.iter().enumerate() {
+        if !n.is_leaf() {
+            continue;
+        }
+        let rep = (n.first_rep..n.first_rep + n.rep_count)
+            .rev()
+            .find(|&r| s.reps[r as usize].rep_kind() == Some(RepKind::Lod))
+            .unwrap();
+        let mesh = scene.read_rep(rep).unwrap();
+        let tol = 2.0 * mesh.quantization_error() + 1e-4;
+        merged += usize::from(n.object == NONE);
+        for (t, tri) in mesh.indices.chunks_exact(3).enumerate() {
+            let k = table.object_at(s, i as u32, t as u32).expect("every triangle has an object");
+            let (lo, hi) = boxes[k as usize];
+            for &v in tri {
+                let p = glam::Vec3::from(mesh.position(&mesh.vertices[v as usize]));
+                assert!(
+                    p.cmpge(lo - tol).all() && p.cmple(hi + tol).all(),
+                    "leaf {i} triangle {t}: {p} outside object {k}'s box {lo}..{hi}"
+                );
+            }
+            tris += 1;
+        }
+    }
+    assert!(merged > 10, "the Duplex has merged leaves ({merged})");
+    assert_eq!(tris, stats.usable_triangles);
+}
