@@ -31,35 +31,72 @@ pub fn cache_dir(chosen: Option<&Path>) -> PathBuf {
         .unwrap_or_else(|| std::env::temp_dir().join("hlod-cache"))
 }
 
-/// The cache key of building `input` with `params`: 32 hex digits.
+/// The cache key of building `input` with `params`: 32 hex digits. The
+/// files are hashed as they are read, a megabyte at a time (opening a
+/// model costs no memory for its key).
 pub fn key(input: &Path, params: &BuildParams) -> Result<String, ImportError> {
     let read_err = |path: &Path, source| ImportError::Read {
         path: path.to_path_buf(),
         source,
     };
-    let bytes = engine::limits::read_bounded(input, import::max_input_bytes())
-        .map_err(|e| read_err(input, e))?;
     let mut h = blake3::Hasher::new();
     h.update(b"hlod-build cache v1\0");
     h.update(env!("CARGO_PKG_VERSION").as_bytes());
     h.update(&engine::format::VERSION.to_le_bytes());
     h.update(format!("{params:?}").as_bytes());
-    h.update(&(bytes.len() as u64).to_le_bytes());
-    h.update(&bytes);
+    hash_file(&mut h, input).map_err(|e| read_err(input, e))?;
+    let head = json_part(input).map_err(|e| read_err(input, e))?;
     let base = input.parent().unwrap_or(Path::new("."));
-    for f in import::external_files(&bytes, base) {
+    for f in import::external_files(&head, base) {
         // A missing buffer is the build's error to report; it keys as absent.
-        match engine::limits::read_bounded(&f, import::max_input_bytes()) {
-            Ok(b) => {
-                h.update(&(b.len() as u64).to_le_bytes());
-                h.update(&b);
-            }
-            Err(_) => {
-                h.update(b"missing");
-            }
+        if hash_file(&mut h, &f).is_err() {
+            h.update(b"missing");
         }
     }
     Ok(h.finalize().to_hex()[..32].to_string())
+}
+
+/// Adds a regular file's length and bytes to `h`, read in chunks.
+fn hash_file(h: &mut blake3::Hasher, path: &Path) -> std::io::Result<()> {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path)?;
+    let meta = f.metadata()?;
+    if !meta.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file",
+        ));
+    }
+    h.update(&meta.len().to_le_bytes());
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        let n = f.read(&mut buf)?;
+        if n == 0 {
+            return Ok(());
+        }
+        h.update(&buf[..n]);
+    }
+}
+
+/// The part of a model that names its buffers: a `.glb`'s header and JSON
+/// chunk, or a whole `.gltf` (bounded reads).
+fn json_part(path: &Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path)?;
+    let mut head = [0u8; 20];
+    let n = f.read(&mut head)?;
+    if n == 20 && &head[..4] == b"glTF" {
+        let json_len = u64::from(u32::from_le_bytes([head[12], head[13], head[14], head[15]]));
+        let mut out = head.to_vec();
+        f.take(json_len.min(import::max_input_bytes()))
+            .read_to_end(&mut out)?;
+        // A container cut after its JSON chunk: the length field is patched
+        // so that the JSON parses alone.
+        let total = out.len() as u32;
+        out[8..12].copy_from_slice(&total.to_le_bytes());
+        return Ok(out);
+    }
+    engine::limits::read_bounded(path, import::max_input_bytes())
 }
 
 /// Where the cached scene of `input` lives.
@@ -156,5 +193,27 @@ mod tests {
         let again = cached_scene(&model, &p, &cache, &|_, _, _| {}).unwrap();
         assert!(!again.hit);
         engine::SceneFile::open(&again.scene).unwrap();
+    }
+
+    #[test]
+    fn an_external_buffer_is_part_of_the_key() {
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/2CylinderEngine");
+        let dir = tempfile::tempdir().unwrap();
+        for f in ["2CylinderEngine.gltf", "2CylinderEngine0.bin"] {
+            std::fs::copy(src.join(f), dir.path().join(f)).unwrap();
+        }
+        let model = dir.path().join("2CylinderEngine.gltf");
+        let p = BuildParams::default();
+        let k1 = key(&model, &p).unwrap();
+        let bin = dir.path().join("2CylinderEngine0.bin");
+        let mut b = std::fs::read(&bin).unwrap();
+        b[100] ^= 1;
+        std::fs::write(&bin, b).unwrap();
+        assert_ne!(k1, key(&model, &p).unwrap());
+        // And a GLB's JSON chunk alone names its buffers.
+        let glb = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/bunny.glb");
+        let part = json_part(&glb).unwrap();
+        assert!(part.len() < 4096, "{} bytes read for the JSON", part.len());
+        assert!(import::external_files(&part, Path::new(".")).is_empty());
     }
 }

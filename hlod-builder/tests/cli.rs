@@ -378,16 +378,42 @@ fn real_exports_build_or_fail_cleanly_and_warnings_print_either_way() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     // Draco: exit 2, one line naming the extension and what to do, nothing left.
-    let out = hlod_build(&["build", &data("real/AC14-FZK-Haus.gt-draco.glb"), "-o", "x.hlod"], d);
+    let out = hlod_build(
+        &[
+            "build",
+            &data("real/AC14-FZK-Haus.gt-draco.glb"),
+            "-o",
+            "x.hlod",
+        ],
+        d,
+    );
     assert_clean_failure(&out, "KHR_draco_mesh_compression", d, 0);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.lines().count(), 1, "{err}");
     // gltfpack's meshopt-compressed output builds, and `info` prints the origin.
-    let out = hlod_build(&["build", &data("real/AC14-FZK-Haus.gltfpack-cc.glb"), "-o", "h.hlod", "-q"], d);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = hlod_build(
+        &[
+            "build",
+            &data("real/AC14-FZK-Haus.gltfpack-cc.glb"),
+            "-o",
+            "h.hlod",
+            "-q",
+        ],
+        d,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let info = hlod_build(&["info", "h.hlod"], d);
     let text = String::from_utf8_lossy(&info.stdout);
-    assert!(text.contains("format v2") && text.contains("origin 0 0 0") && text.contains("91 objects described"), "{text}");
+    assert!(
+        text.contains("format v2")
+            && text.contains("origin 0 0 0")
+            && text.contains("91 objects described"),
+        "{text}"
+    );
     // A build that fails still prints the import's warnings first.
     std::fs::write(
         d.join("lines.gltf"),
@@ -398,5 +424,8 @@ fn real_exports_build_or_fail_cleanly_and_warnings_print_either_way() {
     let out = hlod_build(&["build", "lines.gltf", "-o", "l.hlod"], d);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(err.contains("LINES") && err.contains("no renderable triangles"), "{err}");
+    assert!(
+        err.contains("LINES") && err.contains("no renderable triangles"),
+        "{err}"
+    );
 }

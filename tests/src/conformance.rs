@@ -58,7 +58,9 @@ pub fn read_flat(path: &Path) -> Flat {
             gltf::buffer::Source::Uri(u) => match u.split_once(";base64,") {
                 Some((_, b64)) => {
                     use base64::Engine as _;
-                    base64::engine::general_purpose::STANDARD.decode(b64).unwrap()
+                    base64::engine::general_purpose::STANDARD
+                        .decode(b64)
+                        .unwrap()
                 }
                 None => std::fs::read(path.parent().unwrap().join(u)).unwrap(),
             },

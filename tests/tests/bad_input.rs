@@ -234,9 +234,16 @@ fn an_unsupported_required_extension_is_refused_first_in_one_short_line() {
     let json = br#"{"asset":{"version":"2.0"},"extensionsRequired":["KHR_draco_mesh_compression"],
         "extensionsUsed":["KHR_draco_mesh_compression"],"accessors":5,"meshes":[{"primitives":[]}]}"#;
     let e = fails("draco.gltf", json).to_string();
-    assert!(e.contains("KHR_draco_mesh_compression") && e.contains("meshopt"), "{e}");
+    assert!(
+        e.contains("KHR_draco_mesh_compression") && e.contains("meshopt"),
+        "{e}"
+    );
     assert!(!e.contains('\n') && e.len() < 400, "one short line: {e}");
-    assert_eq!(e.matches("draco.gltf").count(), 1, "the file named once: {e}");
+    assert_eq!(
+        e.matches("draco.gltf").count(),
+        1,
+        "the file named once: {e}"
+    );
     let other = br#"{"asset":{"version":"2.0"},"extensionsRequired":["ACME_teleport"]}"#;
     let e = fails("acme.gltf", other).to_string();
     assert!(e.contains("ACME_teleport"), "{e}");
@@ -246,7 +253,10 @@ fn an_unsupported_required_extension_is_refused_first_in_one_short_line() {
 fn no_renderable_triangles_says_why() {
     let (p, i) = grid(2);
     let e = fails("lines.gltf", tiny_gltf(&p, &i, 1, None).as_bytes()).to_string();
-    assert!(e.contains("meshes[0].primitives[0]") && e.contains("LINES"), "{e}");
+    assert!(
+        e.contains("meshes[0].primitives[0]") && e.contains("LINES"),
+        "{e}"
+    );
     let (mut p, i) = grid(2);
     p[0][0] = f32::NAN;
     let e = fails("nan.gltf", tiny_gltf(&p, &i, 4, None).as_bytes()).to_string();
@@ -260,7 +270,10 @@ fn no_renderable_triangles_says_why() {
 #[test]
 fn an_overflowing_transform_is_caught_at_import_naming_the_node() {
     let (p, i) = grid(2);
-    let json = tiny_gltf(&p, &i, 4, None).replace(r#""nodes":[{"mesh":0}]"#, r#""nodes":[{"mesh":0,"scale":[1e30,1e30,1e30]}]"#);
+    let json = tiny_gltf(&p, &i, 4, None).replace(
+        r#""nodes":[{"mesh":0}]"#,
+        r#""nodes":[{"mesh":0,"scale":[1e30,1e30,1e30]}]"#,
+    );
     let e = fails("huge.gltf", json.as_bytes()).to_string();
     assert!(e.contains("nodes[0]") && e.contains("beyond"), "{e}");
     assert!(!e.contains("invariant") && !e.contains("huge.hlod"), "{e}");
@@ -283,19 +296,30 @@ fn valid_files_the_old_importer_refused_now_build() {
     let no_scene_nodes = base.replace(r#""scenes":[{"nodes":[0]}]"#, r#""scenes":[{}]"#);
     let no_scenes = base.replace(r#""scene":0,"scenes":[{"nodes":[0]}],"#, "");
     let chain: Vec<String> = (0..400)
-        .map(|k| if k == 399 { r#"{"mesh":0}"#.to_string() } else { format!(r#"{{"children":[{}]}}"#, k + 1) })
+        .map(|k| {
+            if k == 399 {
+                r#"{"mesh":0}"#.to_string()
+            } else {
+                format!(r#"{{"children":[{}]}}"#, k + 1)
+            }
+        })
         .collect();
-    let deep = base.replace(r#""nodes":[{"mesh":0}]"#, &format!(r#""nodes":[{}]"#, chain.join(",")));
-    let byte_normals = base.replace(
-        r#""attributes":{"POSITION":0}"#,
-        r#""attributes":{"POSITION":0,"NORMAL":2}"#,
-    ).replace(
-        r#"{"bufferView":1,"componentType":5125"#,
-        r#"{"bufferView":1,"componentType":5125"#,
-    ).replace(
-        r#""type":"SCALAR"}],"#,
-        &format!(r#""type":"SCALAR"}},{{"bufferView":0,"componentType":5121,"count":{},"type":"VEC3"}}],"#, p.len()),
+    let deep = base.replace(
+        r#""nodes":[{"mesh":0}]"#,
+        &format!(r#""nodes":[{}]"#, chain.join(",")),
     );
+    let byte_normals = base
+        .replace(
+            r#""attributes":{"POSITION":0}"#,
+            r#""attributes":{"POSITION":0,"NORMAL":2}"#,
+        )
+        .replace(
+            r#""type":"SCALAR"}],"#,
+            &format!(
+                r#""type":"SCALAR"}},{{"bufferView":0,"componentType":5121,"count":{},"type":"VEC3"}}],"#,
+                p.len()
+            ),
+        );
     for (name, json) in [
         ("no-minmax.gltf", no_minmax),
         ("no-scene-nodes.gltf", no_scene_nodes),
@@ -310,7 +334,14 @@ fn valid_files_the_old_importer_refused_now_build() {
             .unwrap_or_else(|e| panic!("{name}: {e}\n{json}"));
         assert_eq!(stats.input_triangles, 18, "{name}");
         if name == "byte-normals.gltf" {
-            assert!(stats.warnings.iter().any(|w| w.contains("normals recomputed")), "{:?}", stats.warnings);
+            assert!(
+                stats
+                    .warnings
+                    .iter()
+                    .any(|w| w.contains("normals recomputed")),
+                "{:?}",
+                stats.warnings
+            );
         }
     }
 }

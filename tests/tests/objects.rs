@@ -23,7 +23,12 @@ fn every_finest_triangle_lies_in_the_box_of_the_object_it_is_attributed_to() {
             assert!(v["name"].as_str().is_some_and(|n| !n.is_empty()), "{v}");
             assert!(v["mesh_name"].is_string(), "{v}");
             let b = |key: &str| {
-                let a: Vec<f64> = v[key].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+                let a: Vec<f64> = v[key]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|x| x.as_f64().unwrap())
+                    .collect();
                 (glam::DVec3::new(a[0], a[1], a[2]) - origin).as_vec3()
             };
             (b("box_min"), b("box_max"))
@@ -42,7 +47,9 @@ fn every_finest_triangle_lies_in_the_box_of_the_object_it_is_attributed_to() {
         let tol = 2.0 * mesh.quantization_error() + 1e-4;
         merged += usize::from(n.object == NONE);
         for (t, tri) in mesh.indices.chunks_exact(3).enumerate() {
-            let k = table.object_at(s, i as u32, t as u32).expect("every triangle has an object");
+            let k = table
+                .object_at(s, i as u32, t as u32)
+                .expect("every triangle has an object");
             let (lo, hi) = boxes[k as usize];
             for &v in tri {
                 let p = glam::Vec3::from(mesh.position(&mesh.vertices[v as usize]));

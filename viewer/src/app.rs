@@ -355,7 +355,8 @@ impl App {
             None => gfx.clear(&target),
         }
         let mut actions = ui::Actions::default();
-        let mut exiting = self.args.exit_after.is_some_and(|n| self.frames + 1 >= n);
+        let mut exiting = self.args.exit_after.is_some_and(|n| self.frames + 1 >= n)
+            || (self.args.exit_when_complete && self.open_failed.is_some());
         let refresh =
             self.ui_dirty || now >= self.ui_due || exiting || self.screenshot_to.is_some();
         if !self.args.no_overlay && refresh {
@@ -447,9 +448,6 @@ impl App {
                     exiting = true;
                 }
             }
-        }
-        if self.args.exit_when_complete && self.open_failed.is_some() {
-            exiting = true;
         }
         if let Some(m) = metrics {
             if let Err(e) = self.log_frame(&m, loop_ms) {

@@ -320,3 +320,42 @@ fn picks_the_element_at_a_known_pixel_and_shows_its_name() {
     assert!(panel > 100, "no selection panel ({panel})");
     assert!(names.iter().any(|n| n.contains("Ifc")), "{names:?}");
 }
+
+#[test]
+fn a_budget_below_the_minimal_front_is_an_error_that_cannot_be_missed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = fzk_haus();
+    let out = view(
+        d,
+        &[
+            model.to_str().unwrap(),
+            "--cache",
+            "cache",
+            "--budget",
+            "1KiB",
+            "--exit-after",
+            "40",
+            "--exit-when-complete",
+            "--screenshot",
+            "small.png",
+            "--width",
+            "640",
+            "--height",
+            "400",
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("below the minimal front"), "{err}");
+    // The red panel is painted in the screenshot, centred at the bottom.
+    let img = RgbaImage::load_png(&d.join("small.png")).unwrap();
+    let red = (0..img.width)
+        .flat_map(|x| (img.height / 2..img.height).map(move |y| (x, y)))
+        .filter(|&(x, y)| {
+            let p = img.pixel(x, y);
+            p[0] > 70 && p[0] < 110 && p[1] < 40 && p[2] < 40
+        })
+        .count();
+    assert!(red > 2000, "no error panel ({red} red pixels)");
+}
