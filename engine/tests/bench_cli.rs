@@ -314,13 +314,16 @@ fn sweep_points_that_round_alike_get_files_of_their_own() {
 fn lying_header(d: &Path, nodes: u32) -> std::path::PathBuf {
     use engine::FileHeader;
     let mut bytes = std::fs::read(d.join("s.hlod")).unwrap();
-    let mut h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..128]);
+    const H: usize = std::mem::size_of::<FileHeader>();
+    let mut h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..H]);
     h.node_count = nodes;
     h.skeleton_len = u64::from(nodes) * 64 + u64::from(h.rep_count) * 64;
-    h.file_len = h.skeleton_offset + h.skeleton_len;
+    h.objects_offset = h.skeleton_offset + h.skeleton_len;
+    h.objects_len = 0;
+    h.file_len = h.objects_offset;
     h.header_crc = 0;
     h.header_crc = crc32fast::hash(bytemuck::bytes_of(&h));
-    bytes[..128].copy_from_slice(bytemuck::bytes_of(&h));
+    bytes[..H].copy_from_slice(bytemuck::bytes_of(&h));
     let p = d.join(format!("lie{nodes}.hlod"));
     std::fs::write(&p, &bytes).unwrap();
     std::fs::OpenOptions::new()

@@ -110,6 +110,8 @@ struct App {
     started: Instant,
     /// Whether the last frame was complete, and how many reps were still loading.
     complete: Option<(bool, u32)>,
+    /// The frame at which a scene first failed to open.
+    failed_at: Option<u64>,
 }
 
 impl App {
@@ -158,6 +160,7 @@ impl App {
             complete_at: None,
             started: Instant::now(),
             complete: None,
+            failed_at: None,
         }
     }
 
@@ -179,7 +182,7 @@ impl App {
             self.ui_dirty = true;
             return;
         }
-        self.open_scene(path);
+        self.open_scene(path, None);
     }
 
     /// Opens a built model when its build has finished.
@@ -202,7 +205,7 @@ impl App {
                     },
                     cached.scene.display()
                 );
-                self.open_scene(&cached.scene);
+                self.open_scene(&cached.scene, Some(&input));
             }
             Err(e) => {
                 let msg = format!("cannot open {}: {e}", input.display());
@@ -212,7 +215,9 @@ impl App {
         }
     }
 
-    fn open_scene(&mut self, path: &Path) {
+    /// Opens a scene file; `model` is the glTF it was built from, which
+    /// errors name first.
+    fn open_scene(&mut self, path: &Path, model: Option<&Path>) {
         let Some(gfx) = &self.gfx else { return };
         self.session = None;
         self.selection = None;
@@ -240,7 +245,14 @@ impl App {
                 self.open_failed = None;
             }
             Err(e) => {
-                let msg = format!("cannot open {}: {e}", path.display());
+                let msg = match model {
+                    Some(m) => format!(
+                        "cannot open {} (built into {}): {e}",
+                        m.display(),
+                        path.display()
+                    ),
+                    None => format!("cannot open {}: {e}", path.display()),
+                };
                 self.open_failed = Some(msg.clone());
                 self.report(msg);
             }
@@ -355,8 +367,14 @@ impl App {
             None => gfx.clear(&target),
         }
         let mut actions = ui::Actions::default();
+        if self.open_failed.is_some() && self.failed_at.is_none() {
+            self.failed_at = Some(self.frames);
+        }
+        // A failure ends `--exit-when-complete` a few frames later, once its
+        // panel has been painted.
         let mut exiting = self.args.exit_after.is_some_and(|n| self.frames + 1 >= n)
-            || (self.args.exit_when_complete && self.open_failed.is_some());
+            || (self.args.exit_when_complete
+                && self.failed_at.is_some_and(|f| self.frames >= f + 3));
         let refresh =
             self.ui_dirty || now >= self.ui_due || exiting || self.screenshot_to.is_some();
         if !self.args.no_overlay && refresh {
@@ -398,6 +416,15 @@ impl App {
             let out = gfx
                 .egui_ctx
                 .run_pass(raw, |ctx| actions = ui::draw(ctx, ui_state, &view, hist));
+            // egui asks for another pass at once when a new window is sized
+            // (it is invisible in its first): give it one.
+            if out
+                .viewport_output
+                .values()
+                .any(|v| v.repaint_delay.is_zero())
+            {
+                self.ui_dirty = true;
+            }
             gfx.paint_egui(out);
         }
         if !self.args.no_overlay {
