@@ -724,7 +724,18 @@ impl ApplicationHandler for App {
         }
     }
 
-    fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        // While a model builds, ten frames a second show its progress and
+        // leave the cores to the build.
+        if self.building.is_some() {
+            let next = self.last + std::time::Duration::from_millis(100);
+            if Instant::now() < next {
+                event_loop.set_control_flow(ControlFlow::WaitUntil(next));
+                return;
+            }
+            self.ui_dirty = true;
+        }
+        event_loop.set_control_flow(ControlFlow::Poll);
         if let Some(g) = &self.gfx {
             g.window.request_redraw();
         }
