@@ -26,9 +26,8 @@
 //! - [`cache`] (StartTail InMemoryList), [`prefetch`] (bins, AngPr, Priority)
 //!   and [`runtime`]: P_R ([`runtime::Walkthrough`]) and the P_I loader thread
 //!   under a hard byte budget, in `incore`, `nopre` and `pre` modes.
-//! - [`metrics`] (per-frame CSV, summaries), [`render`] (the renderer trait and
-//!   the `none` renderer) and [`cli`] (shared plumbing of the binaries: error
-//!   report, the validated parameter layer).
+//! - [`metrics`] (per-frame CSV, summaries) and [`render`] (the renderer trait
+//!   and the `none` renderer).
 //! - [`pick`]: the object under a pixel (leaf boxes, then the finest rep's
 //!   triangles), resolved through the scene file's object section.
 //! - [`limits`] (checked durations, allocations and reads bounded by the
@@ -41,16 +40,17 @@
 //!   scene file (`RepKind::Vdt`); P_R refines and draws it
 //!   (`runtime::trees`) under the runtime's one footprint.
 //!
-//! Only [`gpu`] touches wgpu, behind [`render::Renderer`]; everything else is
-//! plain Rust testable without a GPU.
+//! This crate does not depend on wgpu: the wgpu renderer is the `engine-gpu`
+//! crate (`engine/gpu/`), behind [`render::Renderer`]; the binaries' shared
+//! plumbing (error report, validated parameters) is `engine-cli`
+//! (`engine/cli/`), and `hlod-bench` / `vdt-bench` with their plots live in
+//! `engine-tools` (`engine/tools/`).
 
 pub mod cache;
 pub mod camera;
-pub mod cli;
 pub mod disk;
 pub mod format;
 pub mod front;
-pub mod gpu;
 pub mod image;
 pub mod io;
 pub mod limits;
@@ -58,6 +58,7 @@ pub mod metrics;
 pub mod outfile;
 pub mod pick;
 pub mod prefetch;
+pub mod records;
 pub mod render;
 pub mod runtime;
 pub mod skeleton;

@@ -11,7 +11,7 @@
 //! A node without reps (allowed for interior nodes only) is transparent: PAR and
 //! CHD pass through it.
 
-use crate::format::{BLOCK, NONE, NodeRecord, RepKind, RepMesh, RepRecord};
+use crate::records::{BLOCK, NONE, NodeRecord, RepKind, RepRecord, rep_payload_len};
 
 /// Global index of an object-rep in the skeleton's rep table.
 pub type RepId = u32;
@@ -253,7 +253,7 @@ impl Skeleton {
                     }
                 } else {
                     let expect =
-                        RepMesh::encoded_len(r.vertex_count as usize, r.tri_count as usize * 3);
+                        rep_payload_len(r.vertex_count as usize, r.tri_count as usize * 3);
                     if r.len as usize != expect || r.aux != 0 {
                         return Err(rep_err(format!(
                             "length {}+{} but counts need {expect}",

@@ -137,7 +137,7 @@ enum GenCmd {
 }
 
 fn main() -> ExitCode {
-    engine::cli::main_with(|| run(Cli::parse()))
+    engine_cli::main_with(|| run(Cli::parse()))
 }
 
 fn run(cli: Cli) -> Result<()> {

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use engine::camera::{PathKind, Pose, generate_path};
-use engine::gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
+use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use engine::image::RgbaImage;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::{ByteSource, MemSource, SceneFile, Skeleton};

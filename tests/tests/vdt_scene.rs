@@ -7,7 +7,7 @@ use std::io::Cursor;
 use std::sync::{Arc, OnceLock};
 
 use engine::camera::{PathKind, Pose, generate_path};
-use engine::gpu::{GpuContext, GpuRenderer, RendererConfig};
+use engine_gpu::{GpuContext, GpuRenderer, RendererConfig};
 use engine::metrics::FrameMetrics;
 use engine::render::NoneRenderer;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};

@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{Context, Result, anyhow};
 use engine::camera::{Pose, format_path, read_path};
 use engine::disk::DiskModel;
-use engine::gpu::Colouring;
+use engine_gpu::Colouring;
 use engine::metrics::CsvStream;
 use engine::runtime::{Mode, RuntimeParams};
 use winit::application::ApplicationHandler;
@@ -59,7 +59,7 @@ fn initial_settings(a: &Args) -> Result<Settings> {
     params.check()?;
     // The fraction is fixed once the scene's size is known.
     if a.budget.trim() != "auto" {
-        engine::cli::parse_budget(&a.budget, 1 << 30)?;
+        engine_cli::parse_budget(&a.budget, 1 << 30)?;
     }
     Ok(Settings {
         mode,
@@ -440,7 +440,7 @@ impl App {
         if let Some(to) = self.screenshot_to.take() {
             let img = match &self.session {
                 Some(s) if offscreen => s.renderer.read_texture(s.renderer.target_texture()),
-                _ if gfx.copy_src => engine::gpu::read_texture(&gfx.ctx, &frame.texture.texture),
+                _ if gfx.copy_src => engine_gpu::read_texture(&gfx.ctx, &frame.texture.texture),
                 _ => None,
             };
             match img {

@@ -3,10 +3,10 @@
 
 use std::sync::Arc;
 
-use engine::gpu::GpuContext;
+use engine_gpu::GpuContext;
 use winit::window::Window;
 
-use crate::overlay::Overlay;
+use crate::overlay::{Overlay, color_pass};
 
 /// Window, surface and egui state.
 pub struct Gfx {
@@ -38,31 +38,6 @@ impl std::fmt::Debug for Gfx {
 pub struct Frame {
     pub texture: wgpu::SurfaceTexture,
     pub view: wgpu::TextureView,
-}
-
-/// A colour-only render pass over `view` (no depth), storing its result.
-pub fn color_pass<'e>(
-    enc: &'e mut wgpu::CommandEncoder,
-    label: &str,
-    view: &wgpu::TextureView,
-    load: wgpu::LoadOp<wgpu::Color>,
-) -> wgpu::RenderPass<'e> {
-    enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some(label),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load,
-                store: wgpu::StoreOp::Store,
-            },
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    })
 }
 
 impl Gfx {
@@ -213,7 +188,7 @@ impl Gfx {
             &mut enc,
             "clear",
             view,
-            wgpu::LoadOp::Clear(engine::gpu::BACKGROUND),
+            wgpu::LoadOp::Clear(engine_gpu::BACKGROUND),
         );
         self.ctx.queue.submit([enc.finish()]);
     }

@@ -21,7 +21,7 @@ mod picking;
 mod session;
 mod ui;
 
-use engine::cli::in_range;
+use engine_cli::in_range;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -119,5 +119,5 @@ fn parse_pixel(s: &str) -> Result<(f32, f32), String> {
 }
 
 fn main() -> ExitCode {
-    engine::cli::main_with(|| app::run(Args::parse()))
+    engine_cli::main_with(|| app::run(Args::parse()))
 }

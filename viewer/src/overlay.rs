@@ -15,7 +15,6 @@ pub struct Overlay {
     pub rect: [u32; 4],
 }
 
-use crate::gfx::color_pass;
 
 const WGSL: &str = include_str!("../../shaders/overlay.wgsl");
 
@@ -160,4 +159,29 @@ fn target(
         }],
     });
     (texture, view, bind_group)
+}
+
+/// A colour-only render pass over `view` (no depth), storing its result.
+pub fn color_pass<'e>(
+    enc: &'e mut wgpu::CommandEncoder,
+    label: &str,
+    view: &wgpu::TextureView,
+    load: wgpu::LoadOp<wgpu::Color>,
+) -> wgpu::RenderPass<'e> {
+    enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load,
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
 }

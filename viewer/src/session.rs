@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use engine::disk::{DiskModel, scene_source};
-use engine::gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
+use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::{SceneFile, Skeleton};
 use glam::Vec3;
@@ -73,9 +73,9 @@ impl Session {
         let data_bytes: u64 = skeleton.reps.iter().map(|r| u64::from(r.len)).sum();
         if let Some(b) = budget {
             let bytes = if b.trim() == "auto" {
-                engine::cli::auto_budget(&skeleton)
+                engine_cli::auto_budget(&skeleton)
             } else {
-                engine::cli::parse_budget(b, data_bytes.max(1)).map_err(|e| e.to_string())?
+                engine_cli::parse_budget(b, data_bytes.max(1)).map_err(|e| e.to_string())?
             };
             settings.budget_fraction = (bytes as f64 / data_bytes.max(1) as f64).clamp(1e-6, 1.0);
         }

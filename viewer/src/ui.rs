@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 
 use egui_plot::{Line, Plot, PlotPoints};
-use engine::gpu::Colouring;
+use engine_gpu::Colouring;
 use engine::metrics::FrameMetrics;
 use engine::runtime::Mode;
 

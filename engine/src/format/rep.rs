@@ -29,7 +29,7 @@ pub struct RepHeader {
     pub quant_min: [f32; 3],
     pub quant_scale: [f32; 3],
 }
-const _: () = assert!(size_of::<RepHeader>() == 48);
+const _: () = assert!(size_of::<RepHeader>() == crate::records::REP_HEADER_BYTES);
 
 /// A render-ready vertex: 16 bytes.
 #[repr(C)]
@@ -42,7 +42,7 @@ pub struct PackedVertex {
     /// RGBA8 colour.
     pub color: [u8; 4],
 }
-const _: () = assert!(size_of::<PackedVertex>() == 16);
+const _: () = assert!(size_of::<PackedVertex>() == crate::records::PACKED_VERTEX_BYTES);
 
 /// A decoded object-rep.
 #[derive(Clone, Debug, PartialEq)]
@@ -133,10 +133,7 @@ impl RepMesh {
 
     /// Exact payload length for the given counts.
     pub fn encoded_len(vertex_count: usize, index_count: usize) -> usize {
-        let index_size = if vertex_count <= 1 << 16 { 2 } else { 4 };
-        size_of::<RepHeader>()
-            + vertex_count * size_of::<PackedVertex>()
-            + (index_count * index_size).next_multiple_of(4)
+        crate::records::rep_payload_len(vertex_count, index_count)
     }
 
     /// Serialises the rep for `node`, position `index`.

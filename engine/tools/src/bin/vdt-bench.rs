@@ -10,7 +10,7 @@
 //! `frames.csv`, `table2.md` and, with `--psnr-every`, PSNR of the refined
 //! mesh against the full-resolution one (CPU rasteriser).
 
-use engine::cli::{in_range, zero_or_in};
+use engine_cli::{in_range, zero_or_in};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -81,7 +81,7 @@ struct Frame {
 }
 
 fn main() -> ExitCode {
-    engine::cli::main_with(|| run(Args::parse()))
+    engine_cli::main_with(|| run(Args::parse()))
 }
 
 fn run(a: Args) -> Result<()> {
@@ -121,7 +121,7 @@ fn run(a: Args) -> Result<()> {
     let budgets = a
         .budgets
         .split(',')
-        .map(|b| engine::cli::parse_size("--budgets", b, whole_ext, 10_000.0))
+        .map(|b| engine_cli::parse_size("--budgets", b, whole_ext, 10_000.0))
         .collect::<Result<Vec<u64>>>()?;
     println!(
         "{}: {} leaves, {} nodes, {} meta-nodes (L = {}, largest {} B), DATA {:.2} MiB, tree {:.2} MiB; {} frames, ε {} px, disk {}",

@@ -4,7 +4,7 @@
 //!   else a software rasteriser such as Mesa's lavapipe) and a device.
 //! - [`arena`] sub-allocates rep geometry from a few large buffers (plain
 //!   Rust, tested without a GPU).
-//! - [`GpuRenderer`] implements [`crate::render::Renderer`]: a rep's payload is
+//! - [`GpuRenderer`] implements [`engine::render::Renderer`]: a rep's payload is
 //!   uploaded into the arena when P_R first gets it (while P_I still loads the
 //!   rest of the frame), freed when P_I evicts the rep, and the frame's reps
 //!   are drawn in one depth-tested pass at the end of the frame, sorted by rep

@@ -8,15 +8,16 @@ use bytemuck::{Pod, Zeroable};
 
 use super::arena::{Alloc, Arena};
 use super::resources::{
+    DrawData,
     Target, bind, create_pipeline, draw_buffer, layout_entry, make_target, read_texture, view_proj,
 };
 use super::{GpuContext, GpuError};
-use crate::camera::View;
-use crate::format::{PackedVertex, REP_MAGIC, RepHeader};
-use crate::format::{RepKind, RepRecord};
-use crate::image::RgbaImage;
-use crate::render::Renderer;
-use crate::skeleton::RepId;
+use engine::camera::View;
+use engine::format::{PackedVertex, REP_MAGIC, RepHeader};
+use engine::format::{RepKind, RepRecord};
+use engine::image::RgbaImage;
+use engine::render::Renderer;
+use engine::skeleton::RepId;
 
 /// The clear colour of every frame.
 pub const BACKGROUND: wgpu::Color = wgpu::Color {
@@ -106,14 +107,6 @@ struct Globals {
 }
 const _: () = assert!(size_of::<Globals>() == 80);
 
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-pub(crate) struct DrawData {
-    quant_min: [f32; 4],
-    quant_extent: [f32; 4],
-    tint: [f32; 4],
-}
-const _: () = assert!(size_of::<DrawData>() == 48);
 
 #[derive(Clone, Copy, Debug)]
 struct Slot {

@@ -135,11 +135,11 @@ pub fn parse_size(option: &str, s: &str, data_bytes: u64, max_percent: f64) -> a
         }
         v * mult as f64
     };
-    let limit = crate::limits::memory_total();
+    let limit = engine::limits::memory_total();
     if bytes > limit as f64 {
         bail!(
             "{option} {s:?} is more than this machine's memory ({})",
-            crate::limits::human(limit)
+            engine::limits::human(limit)
         );
     }
     Ok(bytes as u64)
@@ -162,20 +162,20 @@ pub const AUTO_BUDGET_CAP: u64 = 1 << 30;
 /// front plus room to load its largest rep (the root's coarsest rep, which
 /// stays resident, plus the largest extent), so that it can always be shown
 /// and refined.
-pub fn auto_budget(skeleton: &crate::Skeleton) -> u64 {
-    let data: u64 = skeleton.reps.iter().map(crate::RepRecord::extent).sum();
+pub fn auto_budget(skeleton: &engine::Skeleton) -> u64 {
+    let data: u64 = skeleton.reps.iter().map(engine::RepRecord::extent).sum();
     let root = skeleton
         .nodes
         .first()
         .and_then(|n| skeleton.reps.get(n.first_rep as usize))
-        .map_or(0, crate::RepRecord::extent);
+        .map_or(0, engine::RepRecord::extent);
     let largest = skeleton
         .reps
         .iter()
-        .map(crate::RepRecord::extent)
+        .map(engine::RepRecord::extent)
         .max()
         .unwrap_or(0);
-    let cap = AUTO_BUDGET_CAP.min(crate::limits::memory_total() / 4);
+    let cap = AUTO_BUDGET_CAP.min(engine::limits::memory_total() / 4);
     data.min(cap).max(root + largest).max(1)
 }
 

@@ -2,14 +2,24 @@
 
 use std::mem::size_of;
 
+use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
 
 use super::GpuContext;
 use super::MESH_WGSL;
-use super::renderer::DrawData;
-use crate::camera::View;
-use crate::format::PackedVertex;
-use crate::image::RgbaImage;
+use engine::camera::View;
+use engine::format::PackedVertex;
+use engine::image::RgbaImage;
+
+/// One draw's per-rep data in the storage buffer the mesh shader reads.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(crate) struct DrawData {
+    pub quant_min: [f32; 4],
+    pub quant_extent: [f32; 4],
+    pub tint: [f32; 4],
+}
+const _: () = assert!(size_of::<DrawData>() == 48);
 
 pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 

@@ -14,9 +14,9 @@ use anyhow::{Context, Result, bail};
 use clap::Parser;
 use engine::SceneFile;
 use engine::camera::{PathKind, Pose, format_path, generate_path, read_path};
-use engine::cli::{in_range, parse_size, size_or_off, zero_or_in};
+use engine_cli::{in_range, parse_size, size_or_off, zero_or_in};
 use engine::disk::{DiskModel, scene_source};
-use engine::gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
+use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use engine::image::RgbaImage;
 use engine::io::FileSource;
 use engine::metrics::{CsvStream, Recorder, Summary, TracePoint, summary_table, vdt_table};
@@ -146,7 +146,7 @@ struct Args {
 }
 
 fn main() -> ExitCode {
-    engine::cli::main_with(|| run(Args::parse()))
+    engine_cli::main_with(|| run(Args::parse()))
 }
 
 fn run(a: Args) -> Result<()> {
@@ -193,9 +193,9 @@ fn run(a: Args) -> Result<()> {
     let budgets: Vec<u64> = match &a.budgets {
         Some(list) => list
             .split(',')
-            .map(|b| engine::cli::parse_budget(b, data_bytes))
+            .map(|b| engine_cli::parse_budget(b, data_bytes))
             .collect::<Result<_>>()?,
-        None => vec![engine::cli::parse_budget(&a.budget, data_bytes)?],
+        None => vec![engine_cli::parse_budget(&a.budget, data_bytes)?],
     };
     let mut seen = std::collections::BTreeSet::new();
     let budgets: Vec<u64> = budgets

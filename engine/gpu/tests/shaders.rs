@@ -44,7 +44,7 @@ fn mesh_shader_has_the_renderers_entry_points() {
     assert!(stages.contains(&("fs_main".into(), naga::ShaderStage::Fragment)));
     // The renderer embeds the same file.
     assert_eq!(
-        engine::gpu::MESH_WGSL,
+        engine_gpu::MESH_WGSL,
         std::fs::read_to_string(dir.join("mesh.wgsl")).unwrap()
     );
 }

@@ -1,0 +1,240 @@
+//! The on-disk records and constants of the scene format (see
+//! [`crate::format`]): plain data, with their sizes asserted. The skeleton
+//! and the format's reader and writer both build on these; this module
+//! depends on neither.
+
+use bytemuck::{Pod, Zeroable};
+use std::mem::size_of;
+
+#[cfg(not(target_endian = "little"))]
+compile_error!("the scene format is little-endian and this engine reads it by casting");
+
+/// File magic: the first eight bytes of every scene file.
+pub const MAGIC: [u8; 8] = *b"OOCHLOD\0";
+/// The format version this build writes (and the newest it reads).
+pub const VERSION: u32 = 2;
+/// The oldest version this build reads (no origin, no object section).
+pub const OLDEST_VERSION: u32 = 1;
+/// Alignment of every rep payload and of the data section.
+pub const BLOCK: u64 = 4096;
+/// "No node / no object" marker in `u32` fields.
+pub const NONE: u32 = u32::MAX;
+
+/// The fixed header at offset 0.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FileHeader {
+    pub magic: [u8; 8],
+    pub version: u32,
+    /// `size_of::<FileHeader>()`, for forward compatibility checks.
+    pub header_size: u32,
+    pub node_count: u32,
+    pub rep_count: u32,
+    /// Objects (glTF mesh instances) in the source scene.
+    pub object_count: u32,
+    pub flags: u32,
+    /// Triangles in the source scene after instancing.
+    pub input_triangles: u64,
+    pub data_offset: u64,
+    pub data_len: u64,
+    pub skeleton_offset: u64,
+    pub skeleton_len: u64,
+    pub file_len: u64,
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
+    /// CRC-32 of the skeleton section.
+    pub skeleton_crc: u32,
+    /// CRC-32 of this header with this field set to zero.
+    pub header_crc: u32,
+    /// World position of the scene's origin: stored coordinates are
+    /// relative to it (version 2; zero for version 1).
+    pub origin: [f64; 3],
+    /// The object section (after the skeleton; length 0 when absent).
+    pub objects_offset: u64,
+    pub objects_len: u64,
+    /// CRC-32 of the object section.
+    pub objects_crc: u32,
+    pub reserved: [u32; 9],
+}
+const _: () = assert!(size_of::<FileHeader>() == 192);
+
+/// The version-1 header: the version-2 one up to `header_crc`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FileHeaderV1 {
+    pub magic: [u8; 8],
+    pub version: u32,
+    pub header_size: u32,
+    pub node_count: u32,
+    pub rep_count: u32,
+    pub object_count: u32,
+    pub flags: u32,
+    pub input_triangles: u64,
+    pub data_offset: u64,
+    pub data_len: u64,
+    pub skeleton_offset: u64,
+    pub skeleton_len: u64,
+    pub file_len: u64,
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
+    pub skeleton_crc: u32,
+    pub header_crc: u32,
+    pub reserved: [u32; 4],
+}
+const _: () = assert!(size_of::<FileHeaderV1>() == 128);
+
+impl FileHeaderV1 {
+    /// The same facts in the version-2 layout (origin zero, no object
+    /// section). `header_crc` keeps the version-1 value.
+    pub fn upgrade(&self) -> FileHeader {
+        FileHeader {
+            magic: self.magic,
+            version: self.version,
+            header_size: size_of::<FileHeader>() as u32,
+            node_count: self.node_count,
+            rep_count: self.rep_count,
+            object_count: self.object_count,
+            flags: self.flags,
+            input_triangles: self.input_triangles,
+            data_offset: self.data_offset,
+            data_len: self.data_len,
+            skeleton_offset: self.skeleton_offset,
+            skeleton_len: self.skeleton_len,
+            file_len: self.file_len,
+            bounds_min: self.bounds_min,
+            bounds_max: self.bounds_max,
+            skeleton_crc: self.skeleton_crc,
+            header_crc: self.header_crc,
+            origin: [0.0; 3],
+            objects_offset: self.file_len,
+            objects_len: 0,
+            objects_crc: 0,
+            reserved: [0; 9],
+        }
+    }
+}
+
+/// One scene-graph node. Nodes are stored breadth-first: node 0 is the root and
+/// the children of a node are contiguous.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct NodeRecord {
+    pub bbox_min: [f32; 3],
+    pub bbox_max: [f32; 3],
+    /// Parent node, [`NONE`] for the root.
+    pub parent: u32,
+    pub first_child: u32,
+    pub child_count: u32,
+    /// First of this node's reps in the rep table; `N[0]` coarsest.
+    pub first_rep: u32,
+    pub rep_count: u32,
+    /// Distance from the root.
+    pub depth: u32,
+    /// Source object of a leaf made of one object (or one chunk of it), else [`NONE`].
+    pub object: u32,
+    /// Dominant base colour, RGBA8 (red in the low byte).
+    pub color: u32,
+    /// [`NodeRecord::FLAG_CHUNK`], [`NodeRecord::FLAG_MERGED`].
+    pub flags: u32,
+    /// Source objects (or chunks) below and at this node.
+    pub object_count: u32,
+}
+const _: () = assert!(size_of::<NodeRecord>() == 64);
+
+impl NodeRecord {
+    /// The leaf is one spatial chunk of a large object.
+    pub const FLAG_CHUNK: u32 = 1;
+    /// The leaf merges several small objects into one.
+    pub const FLAG_MERGED: u32 = 2;
+
+    /// Whether the node has no children.
+    pub fn is_leaf(&self) -> bool {
+        self.child_count == 0
+    }
+}
+
+/// What an object-rep approximates.
+#[repr(u16)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RepKind {
+    /// A static LOD of a leaf's geometry.
+    Lod = 0,
+    /// A hierarchical LOD of an interior node and all its descendants.
+    Hlod = 1,
+    /// A view-dependence tree (El-Sana & Chiang): the finest rep of a large
+    /// object's leaf, refined per frame. Its payload range holds an embedded
+    /// `.vdt` file; `len` covers only the in-core part (header, MNT,
+    /// permanent triangles, checksummed by `checksum`) and `aux` the paged
+    /// part after it; `error` is the tree's coarsest switch value.
+    Vdt = 2,
+}
+
+impl RepKind {
+    /// Decodes the on-disk tag.
+    pub fn from_u16(v: u16) -> Option<Self> {
+        match v {
+            0 => Some(Self::Lod),
+            1 => Some(Self::Hlod),
+            2 => Some(Self::Vdt),
+            _ => None,
+        }
+    }
+}
+
+/// One object-rep: its error, box, counts and payload range.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RepRecord {
+    pub bbox_min: [f32; 3],
+    pub bbox_max: [f32; 3],
+    pub node: u32,
+    /// Position `i` in the node's list `N[0..Num(N)]`, coarsest first.
+    pub index: u16,
+    /// [`RepKind`] tag.
+    pub kind: u16,
+    /// Object-space error in scene units (simplification plus quantisation).
+    pub error: f32,
+    /// CRC-32 of the payload bytes.
+    pub checksum: u32,
+    /// Payload offset, a multiple of [`BLOCK`].
+    pub offset: u64,
+    /// Payload length (without the padding to the next block).
+    pub len: u32,
+    pub tri_count: u32,
+    pub vertex_count: u32,
+    /// [`RepKind::Vdt`]: bytes of the embedded tree after `len` (its
+    /// meta-nodes and flat layout, paged at run time); 0 for other kinds.
+    pub aux: u32,
+}
+const _: () = assert!(size_of::<RepRecord>() == 64);
+
+impl RepRecord {
+    /// The decoded kind, if the tag is known.
+    pub fn rep_kind(&self) -> Option<RepKind> {
+        RepKind::from_u16(self.kind)
+    }
+
+    /// Whether this rep is a view-dependence tree.
+    pub fn is_vdt(&self) -> bool {
+        self.kind == RepKind::Vdt as u16
+    }
+
+    /// Bytes the rep occupies in the data section (`len`, plus `aux` for a
+    /// view-dependence tree).
+    pub fn extent(&self) -> u64 {
+        u64::from(self.len) + u64::from(self.aux)
+    }
+}
+
+/// Bytes of a rep payload with these counts (header, vertices, indices
+/// padded to 4 B; u16 indices up to 65,536 vertices): what
+/// [`crate::format::RepMesh::encode`] writes.
+pub fn rep_payload_len(vertex_count: usize, index_count: usize) -> usize {
+    let index_size = if vertex_count <= 1 << 16 { 2 } else { 4 };
+    REP_HEADER_BYTES + vertex_count * PACKED_VERTEX_BYTES + (index_count * index_size).next_multiple_of(4)
+}
+
+/// Size of a rep payload's header ([`crate::format::RepHeader`]).
+pub const REP_HEADER_BYTES: usize = 48;
+/// Size of one packed vertex ([`crate::format::PackedVertex`]).
+pub const PACKED_VERTEX_BYTES: usize = 16;
