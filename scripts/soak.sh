@@ -13,7 +13,7 @@ frames=${1:-100000}
 runs=${2:-3}
 bash scripts/setup.sh
 command -v /usr/bin/time >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq time; }
-cargo build --release --quiet -p engine -p hlod-builder
+cargo build --release --quiet -p engine-tools -p hlod-builder
 bin=target/release
 out=out/soak
 mkdir -p "$out"

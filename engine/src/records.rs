@@ -231,7 +231,9 @@ impl RepRecord {
 /// [`crate::format::RepMesh::encode`] writes.
 pub fn rep_payload_len(vertex_count: usize, index_count: usize) -> usize {
     let index_size = if vertex_count <= 1 << 16 { 2 } else { 4 };
-    REP_HEADER_BYTES + vertex_count * PACKED_VERTEX_BYTES + (index_count * index_size).next_multiple_of(4)
+    REP_HEADER_BYTES
+        + vertex_count * PACKED_VERTEX_BYTES
+        + (index_count * index_size).next_multiple_of(4)
 }
 
 /// Size of a rep payload's header ([`crate::format::RepHeader`]).

@@ -252,8 +252,7 @@ impl Skeleton {
                         )));
                     }
                 } else {
-                    let expect =
-                        rep_payload_len(r.vertex_count as usize, r.tri_count as usize * 3);
+                    let expect = rep_payload_len(r.vertex_count as usize, r.tri_count as usize * 3);
                     if r.len as usize != expect || r.aux != 0 {
                         return Err(rep_err(format!(
                             "length {}+{} but counts need {expect}",

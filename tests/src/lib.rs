@@ -75,3 +75,37 @@ pub fn grid(n: u32) -> (Vec<[f32; 3]>, Vec<u32>) {
     }
     (p, idx)
 }
+
+/// A GPU context for a test, or `None` when this machine has no adapter:
+/// the test then returns early, and its name and the reason are appended to
+/// `target/test-skips.txt` (which `scripts/test.sh` counts and prints), so a
+/// skip is reported, not hidden. With `HLOD_REQUIRE_GPU` set (as
+/// `scripts/test.sh` sets it once it has installed lavapipe) a missing
+/// adapter fails the test instead.
+pub fn gpu_or_skip(test: &str) -> Option<engine_gpu::GpuContext> {
+    match engine_gpu::GpuContext::new() {
+        Ok(ctx) => Some(ctx),
+        Err(e) => {
+            if std::env::var_os("HLOD_REQUIRE_GPU").is_some() {
+                panic!("{test}: no GPU adapter although HLOD_REQUIRE_GPU is set: {e}");
+            }
+            record_skip(test, &e.to_string());
+            None
+        }
+    }
+}
+
+/// Appends a skipped test and why to `target/test-skips.txt`.
+pub fn record_skip(test: &str, why: &str) {
+    use std::io::Write;
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target");
+    let _ = std::fs::create_dir_all(&dir);
+    if let Ok(mut f) = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(dir.join("test-skips.txt"))
+    {
+        let _ = writeln!(f, "SKIPPED {test}: {why}");
+    }
+    eprintln!("SKIPPED {test}: {why}");
+}

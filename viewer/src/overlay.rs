@@ -15,7 +15,6 @@ pub struct Overlay {
     pub rect: [u32; 4],
 }
 
-
 const WGSL: &str = include_str!("../../shaders/overlay.wgsl");
 
 impl Overlay {

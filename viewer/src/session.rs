@@ -7,9 +7,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use engine::disk::{DiskModel, scene_source};
-use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::{SceneFile, Skeleton};
+use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use glam::Vec3;
 
 /// What the user can change at run time.

@@ -5,9 +5,9 @@
 use std::collections::VecDeque;
 
 use egui_plot::{Line, Plot, PlotPoints};
-use engine_gpu::Colouring;
 use engine::metrics::FrameMetrics;
 use engine::runtime::Mode;
+use engine_gpu::Colouring;
 
 use crate::session::Settings;
 

@@ -8,8 +8,8 @@ use bytemuck::{Pod, Zeroable};
 
 use super::arena::{Alloc, Arena};
 use super::resources::{
-    DrawData,
-    Target, bind, create_pipeline, draw_buffer, layout_entry, make_target, read_texture, view_proj,
+    DrawData, Target, bind, create_pipeline, draw_buffer, layout_entry, make_target, read_texture,
+    view_proj,
 };
 use super::{GpuContext, GpuError};
 use engine::camera::View;
@@ -106,7 +106,6 @@ struct Globals {
     eye: [f32; 4],
 }
 const _: () = assert!(size_of::<Globals>() == 80);
-
 
 #[derive(Clone, Copy, Debug)]
 struct Slot {

@@ -14,15 +14,15 @@ use anyhow::{Context, Result, bail};
 use clap::Parser;
 use engine::SceneFile;
 use engine::camera::{PathKind, Pose, format_path, generate_path, read_path};
-use engine_cli::{in_range, parse_size, size_or_off, zero_or_in};
 use engine::disk::{DiskModel, scene_source};
-use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use engine::image::RgbaImage;
 use engine::io::FileSource;
 use engine::metrics::{CsvStream, Recorder, Summary, TracePoint, summary_table, vdt_table};
 use engine::outfile::write_bytes;
 use engine::render::{NoneRenderer, Renderer};
 use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path_each};
+use engine_cli::{in_range, parse_size, size_or_off, zero_or_in};
+use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use glam::Vec3;
 
 #[derive(Parser, Debug)]

@@ -10,10 +10,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use engine::camera::{PathKind, Pose, generate_path};
-use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use engine::image::RgbaImage;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::{ByteSource, MemSource, SceneFile, Skeleton};
+use engine_gpu::{Colouring, GpuRenderer, RendererConfig};
 use glam::Vec3;
 use hlod_builder::build::{BuildParams, build_file};
 
@@ -35,16 +35,17 @@ fn load(path: &Path) -> (Arc<Skeleton>, Arc<dyn ByteSource>, u64) {
     (skel, Arc::new(MemSource::new(bytes)), data)
 }
 
-fn renderer(capacity: u64, colouring: Colouring) -> GpuRenderer {
-    let ctx = GpuContext::new().expect("a GPU adapter (lavapipe: mesa-vulkan-drivers)");
-    GpuRenderer::new(
+fn renderer(test: &str, capacity: u64, colouring: Colouring) -> Option<GpuRenderer> {
+    let ctx = e2e_tests::gpu_or_skip(test)?;
+    let r = GpuRenderer::new(
         ctx,
         RendererConfig {
             colouring,
             ..RendererConfig::headless(W, H, capacity)
         },
     )
-    .unwrap()
+    .unwrap();
+    Some(r)
 }
 
 fn params(mode: Mode, budget: u64, tol: f32) -> RuntimeParams {
@@ -114,7 +115,9 @@ fn golden_images_of_the_cad_assembly() {
     let (skel, source, data) = load(&scene);
     let far = overview(&skel, Vec3::new(1.0, 0.7, 1.3));
     let near = overview(&skel, Vec3::new(-1.0, 0.3, 0.6));
-    let mut r = renderer(data, Colouring::Object);
+    let Some(mut r) = renderer("golden_images_of_the_cad_assembly", data, Colouring::Object) else {
+        return;
+    };
     let mut walk = Walkthrough::start(skel, source, params(Mode::Incore, 0, 1.0)).unwrap();
     let a = shot(&mut walk, &mut r, &far);
     assert!(a.coverage() > 0.05, "the engine covers part of the image");
@@ -136,7 +139,11 @@ fn a_bgra_output_view_gets_the_same_frame_as_the_own_target() {
     let (_dir, scene) = build(&glb);
     let (skel, source, data) = load(&scene);
     let pose = overview(&skel, Vec3::new(1.0, 0.7, 1.3));
-    let ctx = GpuContext::new().unwrap();
+    let Some(ctx) =
+        e2e_tests::gpu_or_skip("a_bgra_output_view_gets_the_same_frame_as_the_own_target")
+    else {
+        return;
+    };
     let mut cfg = RendererConfig::headless(W, H, data);
     cfg.color_format = wgpu::TextureFormat::Bgra8Unorm;
     let mut r = GpuRenderer::new(ctx, cfg).unwrap();
@@ -209,9 +216,13 @@ fn equal_fronts_give_identical_images_and_gpu_memory_follows_the_budget() {
         160,
     );
     let every = 8;
+    let name = "equal_fronts_give_identical_images_and_gpu_memory_follows_the_budget";
+    if e2e_tests::gpu_or_skip(name).is_none() {
+        return;
+    }
     let run = |mode: Mode, budget: u64| {
         let cap = if mode == Mode::Incore { data } else { budget };
-        let mut r = renderer(cap, Colouring::Object);
+        let mut r = renderer(name, cap, Colouring::Object).expect("an adapter (checked above)");
         let mut walk =
             Walkthrough::start(skel.clone(), source.clone(), params(mode, budget, 1.0)).unwrap();
         let out = play(&mut walk, &mut r, &poses, every);
@@ -277,7 +288,13 @@ fn a_small_arena_recycles_idle_gpu_copies() {
     let big: Vec<u32> = sizes.iter().rev().take(6).map(|x| x.1).collect();
     // Room for about three of the largest reps at a time.
     let cap = sizes.iter().rev().take(3).map(|x| x.0).sum::<u64>();
-    let mut r = renderer(cap, Colouring::Object);
+    let Some(mut r) = renderer(
+        "a_small_arena_recycles_idle_gpu_copies",
+        cap,
+        Colouring::Object,
+    ) else {
+        return;
+    };
     let view = engine::camera::View {
         pose: overview(&skel, Vec3::ONE),
         width_px: W,

@@ -1,0 +1,14 @@
+//! The end-to-end tests, one module per area, linked into one test binary
+//! (each binary links the builder and wgpu; one link instead of eleven).
+
+mod bad_input;
+mod conformance;
+mod corrupt_gltf;
+mod layout;
+mod objects;
+mod render;
+mod scenes;
+mod vdt;
+mod vdt_runtime;
+mod vdt_scene;
+mod walkthrough;
