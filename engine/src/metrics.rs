@@ -2,132 +2,153 @@
 
 use std::fmt::Write as _;
 
-/// What one frame did. `stage2_bytes` were fetched on demand while P_R
-/// waited to render; `prefetch_bytes` were loaded by P_I since the previous
-/// frame's Stage II ended (Stages III and I).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct FrameMetrics {
-    pub frame: u32,
-    pub mode: &'static str,
-    pub frame_ms: f64,
-    pub front_ms: f64,
-    pub wait_ms: f64,
-    pub front_reps: u32,
-    pub front_tris: u64,
-    pub front_bytes: u64,
-    pub missing_reps: u32,
-    pub stage2_bytes: u64,
-    pub prefetch_bytes: u64,
-    pub resident_bytes: u64,
-    /// The largest resident footprint at any moment since the previous frame.
-    pub max_resident_bytes: u64,
-    pub budget_bytes: u64,
-    pub evictions: u32,
-    /// Front reps drawn as a resident ancestor.
-    pub substituted: u32,
-    /// Front reps drawn as themselves.
-    pub drawn_reps: u32,
-    pub drawn_tris: u64,
-    pub read_errors: u32,
-    pub nodes_visited: u32,
-    /// Misses whose node was in the previous front (an LOD switch).
-    pub miss_lod: u32,
-    /// Misses whose ancestor or descendant node was (an HLOD switch).
-    pub miss_hier: u32,
-    /// Misses of newly visible parts of the scene.
-    pub miss_new: u32,
-    /// Time P_I spent reading for Stage II and for prefetching since the
-    /// previous frame (the disk's busy time).
-    pub stage2_io_ms: f64,
-    pub prefetch_io_ms: f64,
-    /// Rep geometry held by the renderer on the GPU (0 without a GPU).
-    pub gpu_bytes: u64,
-    /// Prefetch candidates queued in P_I's bins at the end of Stage II.
-    pub prefetch_queue: u32,
-    /// View-dependence trees drawn this frame, their splits + collapses
-    /// (*Adapt*), active triangles, misses (a wanted split or collapse whose
-    /// meta-node was absent), meta-nodes read since the previous frame, the
-    /// bytes their stores hold (in-core part + place holders, within the
-    /// footprint reserved for them) and the refinement time.
-    pub vdt_trees: u32,
-    pub adapt: u32,
-    pub vdt_tris: u64,
-    pub vdt_misses: u32,
-    pub metas_loaded: u32,
-    pub vdt_bytes: u64,
-    pub vdt_ms: f64,
-    /// Bytes of gaps P_I read through instead of seeking over (not kept).
-    pub skipped_bytes: u64,
-    /// Prefetch reads continued after a fetch command preempted them.
-    pub resumed: u32,
-    /// Bytes of prefetched reps evicted before they were ever drawn.
-    pub wasted_bytes: u64,
-    /// Reads that did not continue where P_I's previous read ended, in
-    /// Stage II and in prefetching.
-    pub stage2_seeks: u32,
-    pub prefetch_seeks: u32,
-    /// Front reps drawn as an ancestor because the stall deadline passed
-    /// (also counted in `substituted`), and bytes read on demand after
-    /// their frame's deadline.
-    pub late_reps: u32,
-    pub late_bytes: u64,
-    /// P_I's time classifying fronts for prefetching (the F_I front, its
-    /// bins and the lookahead fronts) since the previous frame; CPU time
-    /// on P_I's thread, not the disk's.
-    pub classify_ms: f64,
+/// How a field is written in a CSV cell.
+trait Cell {
+    fn cell(&self, out: &mut String);
 }
 
-/// CSV header matching [`FrameMetrics::csv_row`].
-pub const CSV_HEADER: &str = "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms";
+impl Cell for u32 {
+    fn cell(&self, out: &mut String) {
+        let _ = write!(out, "{self}");
+    }
+}
 
-impl FrameMetrics {
-    /// One CSV line (no newline).
-    pub fn csv_row(&self) -> String {
-        format!(
-            "{},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{},{},{},{},{},{},{},{},{:.3},{},{},{},{},{},{},{},{:.3}",
-            self.frame,
-            self.mode,
-            self.frame_ms,
-            self.front_ms,
-            self.wait_ms,
-            self.front_reps,
-            self.front_tris,
-            self.front_bytes,
-            self.missing_reps,
-            self.stage2_bytes,
-            self.prefetch_bytes,
-            self.resident_bytes,
-            self.max_resident_bytes,
-            self.budget_bytes,
-            self.evictions,
-            self.substituted,
-            self.drawn_reps,
-            self.drawn_tris,
-            self.read_errors,
-            self.nodes_visited,
-            self.miss_lod,
-            self.miss_hier,
-            self.miss_new,
-            self.stage2_io_ms,
-            self.prefetch_io_ms,
-            self.gpu_bytes,
-            self.prefetch_queue,
-            self.vdt_trees,
-            self.adapt,
-            self.vdt_tris,
-            self.vdt_misses,
-            self.metas_loaded,
-            self.vdt_bytes,
-            self.vdt_ms,
-            self.skipped_bytes,
-            self.resumed,
-            self.wasted_bytes,
-            self.stage2_seeks,
-            self.prefetch_seeks,
-            self.late_reps,
-            self.late_bytes,
-            self.classify_ms
-        )
+impl Cell for u64 {
+    fn cell(&self, out: &mut String) {
+        let _ = write!(out, "{self}");
+    }
+}
+
+impl Cell for &'static str {
+    fn cell(&self, out: &mut String) {
+        out.push_str(self);
+    }
+}
+
+impl Cell for f64 {
+    fn cell(&self, out: &mut String) {
+        let _ = write!(out, "{self:.3}");
+    }
+}
+
+/// Defines [`FrameMetrics`] from its field list, with the CSV header and row.
+macro_rules! frame_metrics {
+    ($(#[$sdoc:meta])* { $( $(#[$doc:meta])* $field:ident : $ty:ty ),* $(,)? }) => {
+        $(#[$sdoc])*
+        #[derive(Clone, Debug, Default, PartialEq)]
+        pub struct FrameMetrics {
+            $( $(#[$doc])* pub $field: $ty, )*
+        }
+
+        /// The CSV header: [`FrameMetrics::COLUMNS`] joined by commas.
+        pub const CSV_HEADER: &str = {
+            const H: &str = concat!($(stringify!($field), ","),*);
+            // Without the trailing comma.
+            match H.as_bytes().split_last() {
+                Some((_, rest)) => match std::str::from_utf8(rest) {
+                    Ok(s) => s,
+                    Err(_) => panic!("ASCII names"),
+                },
+                None => H,
+            }
+        };
+
+        impl FrameMetrics {
+            /// The CSV columns, in order: the field names.
+            pub const COLUMNS: &'static [&'static str] = &[$(stringify!($field)),*];
+
+            /// One CSV line (no newline), in [`CSV_HEADER`]'s order.
+            pub fn csv_row(&self) -> String {
+                let mut s = String::with_capacity(256);
+                $(
+                    Cell::cell(&self.$field, &mut s);
+                    s.push(',');
+                )*
+                s.pop();
+                s
+            }
+        }
+    };
+}
+
+frame_metrics! {
+    /// What one frame did. `stage2_bytes` were fetched on demand while P_R
+    /// waited to render; `prefetch_bytes` were loaded by P_I since the previous
+    /// frame's Stage II ended (Stages III and I).
+    ///
+    /// The struct, its CSV header ([`CSV_HEADER`], [`FrameMetrics::COLUMNS`])
+    /// and its CSV row ([`FrameMetrics::csv_row`]) come from this one list: a new
+    /// counter is one line here (its CSV cell follows its type: integers and
+    /// names as they are, milliseconds with three decimals).
+    {
+        frame: u32,
+        mode: &'static str,
+        frame_ms: f64,
+        front_ms: f64,
+        wait_ms: f64,
+        front_reps: u32,
+        front_tris: u64,
+        front_bytes: u64,
+        missing_reps: u32,
+        stage2_bytes: u64,
+        prefetch_bytes: u64,
+        resident_bytes: u64,
+        /// The largest resident footprint at any moment since the previous frame.
+        max_resident_bytes: u64,
+        budget_bytes: u64,
+        evictions: u32,
+        /// Front reps drawn as a resident ancestor.
+        substituted: u32,
+        /// Front reps drawn as themselves.
+        drawn_reps: u32,
+        drawn_tris: u64,
+        read_errors: u32,
+        nodes_visited: u32,
+        /// Misses whose node was in the previous front (an LOD switch).
+        miss_lod: u32,
+        /// Misses whose ancestor or descendant node was (an HLOD switch).
+        miss_hier: u32,
+        /// Misses of newly visible parts of the scene.
+        miss_new: u32,
+        /// Time P_I spent reading for Stage II and for prefetching since the
+        /// previous frame (the disk's busy time).
+        stage2_io_ms: f64,
+        prefetch_io_ms: f64,
+        /// Rep geometry held by the renderer on the GPU (0 without a GPU).
+        gpu_bytes: u64,
+        /// Prefetch candidates queued in P_I's bins at the end of Stage II.
+        prefetch_queue: u32,
+        /// View-dependence trees drawn this frame, their splits + collapses
+        /// (*Adapt*), active triangles, misses (a wanted split or collapse whose
+        /// meta-node was absent), meta-nodes read since the previous frame, the
+        /// bytes their stores hold (in-core part + place holders, within the
+        /// footprint reserved for them) and the refinement time.
+        vdt_trees: u32,
+        adapt: u32,
+        vdt_tris: u64,
+        vdt_misses: u32,
+        metas_loaded: u32,
+        vdt_bytes: u64,
+        vdt_ms: f64,
+        /// Bytes of gaps P_I read through instead of seeking over (not kept).
+        skipped_bytes: u64,
+        /// Prefetch reads continued after a fetch command preempted them.
+        resumed: u32,
+        /// Bytes of prefetched reps evicted before they were ever drawn.
+        wasted_bytes: u64,
+        /// Reads that did not continue where P_I's previous read ended, in
+        /// Stage II and in prefetching.
+        stage2_seeks: u32,
+        prefetch_seeks: u32,
+        /// Front reps drawn as an ancestor because the stall deadline passed
+        /// (also counted in `substituted`), and bytes read on demand after
+        /// their frame's deadline.
+        late_reps: u32,
+        late_bytes: u64,
+        /// P_I's time classifying fronts for prefetching (the F_I front, its
+        /// bins and the lookahead fronts) since the previous frame; CPU time
+        /// on P_I's thread, not the disk's.
+        classify_ms: f64,
     }
 }
 
@@ -390,6 +411,27 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_generated_csv_is_the_one_the_tools_and_plots_read() {
+        // The header and cell formats as they were written by hand before
+        // the column list generated them.
+        assert_eq!(
+            CSV_HEADER,
+            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms"
+        );
+        let f = FrameMetrics {
+            frame: 7,
+            mode: "pre",
+            frame_ms: 12.34567,
+            stage2_bytes: 4096,
+            classify_ms: 0.5,
+            ..Default::default()
+        };
+        let row = f.csv_row();
+        assert!(row.starts_with("7,pre,12.346,0.000,0.000,0,0,0,0,4096,"), "{row}");
+        assert!(row.ends_with(",0,0,0.500"), "{row}");
+    }
+
+    #[test]
     fn quantiles_and_csv_shape() {
         let v: Vec<f64> = (1..=100).map(f64::from).collect();
         assert_eq!(quantile(&v, 0.5), 50.0);
@@ -402,6 +444,7 @@ mod tests {
         };
         let csv = to_csv(&[f.clone(), f]);
         let cols = CSV_HEADER.split(',').count();
+        assert_eq!(cols, FrameMetrics::COLUMNS.len());
         assert!(csv.lines().all(|l| l.split(',').count() == cols));
         let s = summarize(
             &[FrameMetrics {
