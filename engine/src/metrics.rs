@@ -427,7 +427,10 @@ mod tests {
             ..Default::default()
         };
         let row = f.csv_row();
-        assert!(row.starts_with("7,pre,12.346,0.000,0.000,0,0,0,0,4096,"), "{row}");
+        assert!(
+            row.starts_with("7,pre,12.346,0.000,0.000,0,0,0,0,4096,"),
+            "{row}"
+        );
         assert!(row.ends_with(",0,0,0.500"), "{row}");
     }
 

@@ -2,15 +2,15 @@
 //! motion reaches in a few frames.
 //!
 //! Most of the bytes a walkthrough fetches for the first time are LOD
-//! switches of approaching objects: on the 13M plant's fly-through, of the
-//! 22.2 MiB drawn for the first time after frame 0, 19.3 MiB are reps that
-//! were not even in the previous frame's all-around front (`hlod-bench
-//! --bounds`). The binned priority serves the children of every front rep
-//! whose projected error is near ε, approaching or not; the position
-//! extrapolated from the last two fetch commands says which ones the
-//! motion will switch: the all-around fronts of the positions 5–10 frames
-//! ahead hold 95 % of them. The viewpoint is extrapolated from the last two
-//! fetch commands, in position and in rotation (a pan goes on turning).
+//! switches of approaching objects, mostly reps that were not even in the
+//! previous frame's all-around front (`hlod-bench --bounds` measures it;
+//! figures in docs/results.md). The binned priority serves the children of
+//! every front rep whose projected error is near ε, approaching or not; the
+//! position extrapolated from the last two fetch commands says which ones
+//! the motion will switch: the all-around fronts of the positions a few
+//! frames ahead hold most of them. The viewpoint is extrapolated from the
+//! last two fetch commands, in position and in rotation (a pan goes on
+//! turning).
 //!
 //! On a slow disk P_I reads only a few reps a frame, so the order is what
 //! counts. P_I computes the view fronts (F_R, no margin) of each of the

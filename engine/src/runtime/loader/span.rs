@@ -4,8 +4,8 @@
 //!
 //! The break-even gap is learnt from P_I's own reads ([`IoCosts`]): reads
 //! that continue where the previous one ended give the time per byte, the
-//! others the seek time. On a seek-bound disk (the `hdd` model: 10 ms, 30
-//! MB/s) it is ≈ 300 KB, on an SSD ≈ 50 KB, on a warm page cache ≈ 0.
+//! others the seek time: seek time × transfer rate, so hundreds of KB on a
+//! seek-bound disk, tens on an SSD and nothing on a warm page cache.
 //!
 //! Also here: the timing checks that decide whether a prefetch read starts
 //! before the next fetch command, preemption, and the [`Partial`] read that

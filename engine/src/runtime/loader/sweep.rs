@@ -1,9 +1,9 @@
 //! The sweep: P_I reads the small reps of the F_I front in file order.
 //!
 //! On a seek-bound disk most of a frame's misses after a pan or a turn are
-//! small reps (the coarse LODs of everything newly in view: on the 13M
-//! plant, 79 % of the reps a fly-through draws are under 8 KiB and hold
-//! 12 % of its bytes), each costing a seek. Served by priority they are
+//! small reps (the coarse LODs of everything newly in view: most of the reps
+//! a fly-through draws, holding a small share of its bytes), each costing a
+//! seek. Served by priority they are
 //! read one seek each; in file order (the spatial layout stores them by
 //! band and along a Morton curve) a run of them costs one seek and their
 //! transfer, and the gaps between them are read through. The sweep is an
