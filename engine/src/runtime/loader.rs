@@ -22,8 +22,8 @@ use std::time::Instant;
 
 use crossbeam_channel::{Receiver, Sender, TryRecvError};
 
+use super::resident::{Purpose, ResidentSet};
 use super::{Cmd, Mode, Reply, RuntimeError, RuntimeParams, StageStats};
-use crate::cache::InMemoryList;
 use crate::camera::View;
 use crate::format::check_rep_crc;
 use crate::front::FrontIndex;
@@ -42,32 +42,17 @@ enum LoadError {
     Preempted,
 }
 
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Purpose {
-    Demand,
-    Prefetch,
-}
-
 pub(super) struct Loader {
     skeleton: Arc<Skeleton>,
     index: Arc<FrontIndex>,
     source: Arc<dyn ByteSource>,
-    /// Bytes reserved for each view-dependence tree's store besides its
-    /// payload (0 for other reps; see `trees::plan_pools`).
-    pools: Arc<Vec<u64>>,
     params: RuntimeParams,
     cmds: Receiver<Cmd>,
     replies: Sender<Reply>,
     pending: Option<Cmd>,
-    list: InMemoryList,
-    data: Vec<Option<Arc<[u8]>>>,
+    /// The resident reps, their bytes, pins and the eviction rule.
+    res: ResidentSet,
     failed: Vec<bool>,
-    /// A rep is pinned (P_R renders it this frame) when its stamp is `pin_gen`.
-    pinned: Vec<u32>,
-    pin_gen: u32,
-    /// The root's coarsest rep: never evicted in the out-of-core modes.
-    keep: Option<RepId>,
-    resident: u64,
     stats: StageStats,
     bins: Bins,
     classified: Vec<u32>,
@@ -99,11 +84,6 @@ pub(super) struct Loader {
     /// when node n was in the previous front / above a node that was.
     front_stamp: Vec<u32>,
     above_stamp: Vec<u32>,
-    /// Prefetched and not drawn since, and the bytes of those reps.
-    speculative: Vec<bool>,
-    speculative_bytes: u64,
-    /// Evicted since the last reply: sent ahead of the next one.
-    evicted: Vec<RepId>,
     /// The small reps of the F_I front not resident, in file order, and the
     /// offset where the sweep through them goes on (`sweep.rs`).
     sweep: Vec<RepId>,
@@ -139,6 +119,7 @@ impl Loader {
     ) -> Self {
         let n = skeleton.reps.len();
         let skeleton_nodes = skeleton.nodes.len();
+        let skeleton_reps_len: Vec<u32> = skeleton.reps.iter().map(|r| r.len).collect();
         let order = FileOrder::new(&skeleton);
         Self {
             bins: Bins::new(params.prefetch.bins, params.delta(), params.tolerance_px),
@@ -149,14 +130,12 @@ impl Loader {
             cmds,
             replies,
             pending: None,
-            list: InMemoryList::new(n),
-            data: vec![None; n],
+            res: ResidentSet::new(
+                (0..n)
+                    .map(|r| footprint(&skeleton_reps_len, &pools, r))
+                    .collect(),
+            ),
             failed: pools.iter().map(|&p| p == super::trees::UNUSABLE).collect(),
-            pools,
-            pinned: vec![0; n],
-            pin_gen: 1,
-            keep: None,
-            resident: 0,
             stats: StageStats::default(),
             classified: vec![0; n],
             // Stamps of 0 never match: nothing is classified or queued yet.
@@ -176,9 +155,6 @@ impl Loader {
             partial: None,
             front_stamp: vec![0; skeleton_nodes],
             above_stamp: vec![0; skeleton_nodes],
-            speculative: vec![false; n],
-            speculative_bytes: 0,
-            evicted: Vec::new(),
             sweep: Vec::new(),
             sweep_at: 0,
             sweep_turn: false,
@@ -269,13 +245,7 @@ impl Loader {
     /// Footprint bytes of rep `r` while resident: its payload, and the
     /// reserve of a view-dependence tree's store.
     fn cost(&self, r: RepId) -> u64 {
-        let pool = self.pools[r as usize];
-        let pool = if pool == super::trees::UNUSABLE {
-            0
-        } else {
-            pool
-        };
-        u64::from(self.skeleton.reps[r as usize].len) + pool
+        self.res.cost(r)
     }
 
     /// P_R could not use rep `r` (a view-dependence tree whose store did not
@@ -289,21 +259,17 @@ impl Loader {
         if self.partial.as_ref().is_some_and(|p| p.rep == r) {
             self.cancel_partial();
         }
-        if self.data[r as usize].is_some() {
+        if self.res.contains(r) {
             self.drop_rep(r);
         }
     }
 
     /// Removes resident rep `r` and tells P_R.
     fn drop_rep(&mut self, r: RepId) {
-        if self.speculative[r as usize] {
-            self.stats.wasted_bytes += u64::from(self.skeleton.reps[r as usize].len);
-        }
-        self.set_speculative(r, false);
-        self.data[r as usize] = None;
-        self.list.remove(r);
-        self.resident -= self.cost(r);
-        self.evicted.push(r);
+        let wasted = self.res.wasted_bytes();
+        self.res
+            .remove(r, u64::from(self.skeleton.reps[r as usize].len));
+        self.stats.wasted_bytes += self.res.wasted_bytes() - wasted;
     }
 
     fn start_up(&mut self) -> Result<(), RuntimeError> {
@@ -315,7 +281,7 @@ impl Loader {
                 let _ = self.load(r, Purpose::Demand);
             }
             self.stats = StageStats {
-                max_resident_bytes: self.resident,
+                max_resident_bytes: self.res.bytes(),
                 ..StageStats::default()
             };
             return Ok(());
@@ -333,9 +299,9 @@ impl Loader {
         }
         match self.load(r, Purpose::Demand) {
             Ok(_) => {
-                self.keep = Some(r);
+                self.res.keep(r);
                 self.stats = StageStats {
-                    max_resident_bytes: self.resident,
+                    max_resident_bytes: self.res.bytes(),
                     ..StageStats::default()
                 };
                 Ok(())
@@ -344,24 +310,15 @@ impl Loader {
         }
     }
 
-    fn is_pinned(&self, r: RepId) -> bool {
-        self.pinned[r as usize] == self.pin_gen || self.keep == Some(r)
-    }
-
     /// Stage II for one front.
     fn fetch(&mut self, front: &[RepId]) -> Result<(), ()> {
-        self.pin_gen += 1;
-        for &r in front {
-            self.pinned[r as usize] = self.pin_gen;
-            self.set_speculative(r, false);
-        }
-        self.list.start_stage2();
+        self.res.start_stage2(front);
         let mut missing = Vec::new();
         for &r in front {
-            match &self.data[r as usize] {
+            match self.res.payload(r) {
                 Some(d) => {
                     let payload = d.clone();
-                    self.list.access(r);
+                    self.res.access(r);
                     self.send(Reply::Draw {
                         rep: r,
                         for_rep: r,
@@ -381,7 +338,7 @@ impl Loader {
                 // Past the stall deadline: ancestors now, the reps after.
                 for &x in &missing[i..] {
                     self.stats.late_reps += 1;
-                    self.late_stamp[x as usize] = self.pin_gen;
+                    self.late_stamp[x as usize] = self.res.frame();
                     self.substitute(x)?;
                 }
                 self.late.reps.extend_from_slice(&missing[i..]);
@@ -400,17 +357,21 @@ impl Loader {
                 Err(_) => self.substitute(r)?,
             }
         }
-        self.stats.resident_bytes = self.resident;
+        self.stats.resident_bytes = self.res.bytes();
         self.stats.prefetch_queue = self.bins.len() as u32;
+        #[cfg(debug_assertions)]
+        if let Err(e) = self.res.validate() {
+            panic!("P_I's resident set is inconsistent: {e}");
+        }
         let stats = std::mem::take(&mut self.stats);
-        self.stats.max_resident_bytes = self.resident;
+        self.stats.max_resident_bytes = self.res.bytes();
         self.send(Reply::Done(stats))
     }
 
     /// Classifies this frame's misses against the previous front, then
     /// stamps this front's nodes for the next frame.
     fn account_misses(&mut self, front: &[RepId], missing: &[RepId]) {
-        let prev = self.pin_gen - 1;
+        let prev = self.res.frame() - 1;
         for &r in missing {
             let n = self.skeleton.reps[r as usize].node;
             if self.front_stamp[n as usize] == prev {
@@ -432,7 +393,7 @@ impl Loader {
                 self.stats.miss_new += 1;
             }
         }
-        let cur = self.pin_gen;
+        let cur = self.res.frame();
         for &r in front {
             let n = self.skeleton.reps[r as usize].node;
             self.front_stamp[n as usize] = cur;
@@ -445,8 +406,8 @@ impl Loader {
     }
 
     fn send(&mut self, r: Reply) -> Result<(), ()> {
-        if !self.evicted.is_empty() {
-            let ev = std::mem::take(&mut self.evicted);
+        if self.res.has_evicted() {
+            let ev = self.res.take_evicted();
             self.replies.send(Reply::Evicted(ev)).map_err(|_| ())?;
         }
         self.replies.send(r).map_err(|_| ())
@@ -456,11 +417,10 @@ impl Loader {
     fn substitute(&mut self, r: RepId) -> Result<(), ()> {
         let mut a = self.skeleton.par(r);
         while let Some(x) = a {
-            if let Some(d) = &self.data[x as usize] {
+            if let Some(d) = self.res.payload(x) {
                 let payload = d.clone();
-                self.pinned[x as usize] = self.pin_gen;
-                self.set_speculative(x, false);
-                self.list.access(x);
+                self.res.pin(x);
+                self.res.access(x);
                 return self.send(Reply::Draw {
                     rep: x,
                     for_rep: r,
@@ -472,42 +432,19 @@ impl Loader {
         self.send(Reply::Missing)
     }
 
-    /// Evicts unpinned reps from the head until `need` more bytes fit; a
-    /// prefetch may only evict reps not accessed since Stage II began.
+    /// Makes room for `need` more bytes under the budget
+    /// ([`ResidentSet::make_room`]: the eviction rule).
     fn make_room(&mut self, need: u64, purpose: Purpose) -> bool {
         let budget = self.params.budget_bytes;
-        if self.resident.saturating_add(need) <= budget {
-            return true;
-        }
-        if need > budget {
-            return false;
-        }
-        let target = budget - need;
         let cap = (budget as f64 * f64::from(self.params.prefetch.speculative_share)) as u64;
-        let only_speculative = purpose == Purpose::Prefetch && self.speculative_bytes + need > cap;
-        let mut victims = Vec::new();
-        let mut after = self.resident;
-        for (r, before_mark) in self.list.iter_from_head() {
-            if purpose == Purpose::Prefetch && !before_mark {
-                break;
-            }
-            if self.is_pinned(r) || (only_speculative && !self.speculative[r as usize]) {
-                continue;
-            }
-            victims.push(r);
-            after -= self.cost(r);
-            if after <= target {
-                break;
-            }
-        }
-        if after > target {
-            return false;
-        }
-        for r in victims {
-            self.drop_rep(r);
-            self.stats.evictions += 1;
-        }
-        true
+        let (evictions, wasted) = (self.res.evictions(), self.res.wasted_bytes());
+        let skeleton = &self.skeleton;
+        let ok = self.res.make_room(need, budget, purpose, cap, |r| {
+            u64::from(skeleton.reps[r as usize].len)
+        });
+        self.stats.evictions += (self.res.evictions() - evictions) as u32;
+        self.stats.wasted_bytes += self.res.wasted_bytes() - wasted;
+        ok
     }
 
     /// Loads rep `r` block by block under the budget.
@@ -539,8 +476,8 @@ impl Loader {
                     return Err(LoadError::NoRoom);
                 }
                 // Reserve first: bytes being loaded count against the budget.
-                self.resident += len;
-                self.stats.max_resident_bytes = self.stats.max_resident_bytes.max(self.resident);
+                self.res.reserve(len);
+                self.stats.max_resident_bytes = self.stats.max_resident_bytes.max(self.res.bytes());
                 (vec![0u8; read as usize], 0)
             }
         };
@@ -552,7 +489,7 @@ impl Loader {
                 .source
                 .read_at(rec.offset + done as u64, &mut buf[done..end])
             {
-                self.resident -= len;
+                self.res.release(len);
                 return Err(self.fail(r, &e.to_string()));
             }
             self.observe(rec.offset + done as u64, end - done, t.elapsed(), purpose);
@@ -572,29 +509,13 @@ impl Loader {
             }
         }
         if let Err(e) = check_rep_crc(r, &rec, &buf[..rec.len as usize]) {
-            self.resident -= len;
+            self.res.release(len);
             return Err(self.fail(r, &e.to_string()));
         }
         let payload: Arc<[u8]> = buf.into();
-        self.data[r as usize] = Some(payload.clone());
-        self.list.access(r);
-        if purpose == Purpose::Prefetch && !self.is_late(r) {
-            self.set_speculative(r, true);
-        }
+        let speculative = purpose == Purpose::Prefetch && !self.is_late(r);
+        self.res.insert(r, payload.clone(), speculative);
         Ok(payload)
-    }
-
-    fn set_speculative(&mut self, r: RepId, on: bool) {
-        let flag = &mut self.speculative[r as usize];
-        if *flag != on {
-            *flag = on;
-            let len = self.cost(r);
-            if on {
-                self.speculative_bytes += len;
-            } else {
-                self.speculative_bytes -= len;
-            }
-        }
     }
 
     fn fail(&mut self, r: RepId, why: &str) -> LoadError {
@@ -630,7 +551,7 @@ impl Loader {
         let Some((o, _)) = self.bins.peek() else {
             return;
         };
-        if self.data[o as usize].is_none() && !self.first_block_in_time(o) {
+        if !self.res.contains(o) && !self.first_block_in_time(o) {
             // Not even its first block (the seek) before the next frame:
             // wait for the fetch command. (A longer read is preempted and
             // goes on later.)
@@ -640,8 +561,8 @@ impl Loader {
         let Some((o, depth)) = self.bins.pop() else {
             return;
         };
-        if self.data[o as usize].is_some() {
-            self.list.access(o);
+        if self.res.contains(o) {
+            self.res.access(o);
         } else {
             // On through the file to the next candidates, while cheap.
             match self.prefetch_read(o) {
@@ -651,4 +572,16 @@ impl Loader {
         }
         self.classify_neighbours(o, depth);
     }
+}
+
+/// Footprint of rep `r` while resident: its payload, and the reserve of a
+/// view-dependence tree's store.
+fn footprint(lens: &[u32], pools: &[u64], r: usize) -> u64 {
+    let pool = pools[r];
+    let pool = if pool == super::trees::UNUSABLE {
+        0
+    } else {
+        pool
+    };
+    u64::from(lens[r]) + pool
 }

@@ -21,6 +21,7 @@
 #[cfg(test)]
 mod fault_tests;
 mod loader;
+pub mod resident;
 #[cfg(test)]
 mod tests;
 mod trees;

@@ -79,8 +79,8 @@ impl Loader {
                 if self.failed[r as usize] {
                     continue;
                 }
-                if self.data[r as usize].is_some() {
-                    self.list.access(r);
+                if self.res.contains(r) {
+                    self.res.access(r);
                     continue;
                 }
                 self.queued[r as usize] = self.class_gen;

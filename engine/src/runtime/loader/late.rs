@@ -36,6 +36,6 @@ impl Loader {
 
     /// Whether rep `r` is late: in this frame's front and past its deadline.
     pub(super) fn is_late(&self, r: RepId) -> bool {
-        self.late_stamp[r as usize] == self.pin_gen
+        self.late_stamp[r as usize] == self.res.frame()
     }
 }

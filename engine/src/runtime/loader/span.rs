@@ -199,7 +199,7 @@ impl Loader {
     /// frame) and not resident.
     pub(super) fn wanted(&self, g: RepId) -> bool {
         (self.queued[g as usize] == self.class_gen || self.is_late(g))
-            && self.data[g as usize].is_none()
+            && !self.res.contains(g)
             && !self.failed[g as usize]
     }
 
@@ -268,7 +268,8 @@ impl Loader {
     pub(super) fn cancel_partial(&mut self) -> bool {
         match self.partial.take() {
             Some(p) => {
-                self.resident -= self.cost(p.rep);
+                let c = self.cost(p.rep);
+                self.res.release(c);
                 true
             }
             None => false,

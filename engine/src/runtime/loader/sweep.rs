@@ -23,8 +23,7 @@ impl Loader {
             return;
         }
         for &r in front {
-            if self.data[r as usize].is_none() && !self.failed[r as usize] && self.cost(r) <= small
-            {
+            if !self.res.contains(r) && !self.failed[r as usize] && self.cost(r) <= small {
                 self.sweep.push(r);
             }
         }
