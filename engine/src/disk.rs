@@ -2,6 +2,7 @@
 //! cache dropped first) or a throttled device with a seek latency and a
 //! bandwidth, so that the papers' slow-disk regime can be reproduced here.
 
+use crate::clock::ManualClock;
 use std::io;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -108,6 +109,48 @@ impl<S: ByteSource> ByteSource for ThrottledSource<S> {
         if let Some(rest) = due.checked_sub(start.elapsed()) {
             std::thread::sleep(rest);
         }
+        Ok(())
+    }
+}
+
+/// A simulated device: reads cost `model`'s time on a [`ManualClock`],
+/// advanced by the read instead of slept (a read that continues where the
+/// previous one ended pays no seek). With the runtime started on the same
+/// clock ([`crate::runtime::Walkthrough::start_with_clock`]), P_I's timing
+/// policy runs as on the device, exactly and without waiting.
+#[derive(Debug)]
+pub struct ClockedSource<S> {
+    inner: S,
+    model: DiskModel,
+    clock: std::sync::Arc<ManualClock>,
+    last_end: Mutex<Option<u64>>,
+}
+
+impl<S: ByteSource> ClockedSource<S> {
+    pub fn new(inner: S, model: DiskModel, clock: std::sync::Arc<ManualClock>) -> Self {
+        Self {
+            inner,
+            model,
+            clock,
+            last_end: Mutex::new(None),
+        }
+    }
+}
+
+impl<S: ByteSource> ByteSource for ClockedSource<S> {
+    fn len(&self) -> u64 {
+        self.inner.len()
+    }
+
+    fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
+        let seek = {
+            let mut last = self.last_end.lock().unwrap_or_else(|e| e.into_inner());
+            let seek = *last != Some(offset);
+            *last = Some(offset + buf.len() as u64);
+            seek
+        };
+        self.inner.read_at(offset, buf)?;
+        self.clock.advance(self.model.cost(buf.len(), seek));
         Ok(())
     }
 }

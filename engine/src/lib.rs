@@ -48,6 +48,7 @@
 
 pub mod cache;
 pub mod camera;
+pub mod clock;
 pub mod disk;
 pub mod format;
 pub mod front;

@@ -50,6 +50,8 @@ pub(super) struct Loader {
     cmds: Receiver<Cmd>,
     replies: Sender<Reply>,
     pending: Option<Cmd>,
+    /// Where P_I's timing comes from (the system's clock, or a test's).
+    clock: Arc<dyn crate::clock::Clock>,
     /// The resident reps, their bytes, pins and the eviction rule.
     res: ResidentSet,
     failed: Vec<bool>,
@@ -116,6 +118,7 @@ impl Loader {
         params: RuntimeParams,
         cmds: Receiver<Cmd>,
         replies: Sender<Reply>,
+        clock: Arc<dyn crate::clock::Clock>,
     ) -> Self {
         let n = skeleton.reps.len();
         let skeleton_nodes = skeleton.nodes.len();
@@ -130,6 +133,7 @@ impl Loader {
             cmds,
             replies,
             pending: None,
+            clock,
             res: ResidentSet::new(
                 (0..n)
                     .map(|r| footprint(&skeleton_reps_len, &pools, r))
@@ -208,7 +212,7 @@ impl Loader {
                     turn_rad,
                     front,
                 } => {
-                    let now = Instant::now();
+                    let now = self.clock.now();
                     let period = f64::from(self.params.frame_period_s);
                     if let Some(t) = self.last_fetch_at {
                         // A stalled frame must not promise P_I a long window.
@@ -231,9 +235,9 @@ impl Loader {
                         return;
                     }
                     if self.params.mode == Mode::Pre {
-                        let t = Instant::now();
+                        let t = self.clock.now();
                         self.classify_front(&view, turn_rad);
-                        self.stats.classify_s += t.elapsed().as_secs_f64();
+                        self.stats.classify_s += (self.clock.now() - t).as_secs_f64();
                     }
                 }
                 Cmd::Unusable(r) => self.unusable(r),
@@ -484,7 +488,7 @@ impl Loader {
         let block = self.params.block_bytes;
         while done < buf.len() {
             let end = (done + block).min(buf.len());
-            let t = Instant::now();
+            let t = self.clock.now();
             if let Err(e) = self
                 .source
                 .read_at(rec.offset + done as u64, &mut buf[done..end])
@@ -492,7 +496,8 @@ impl Loader {
                 self.res.release(len);
                 return Err(self.fail(r, &e.to_string()));
             }
-            self.observe(rec.offset + done as u64, end - done, t.elapsed(), purpose);
+            let took = self.clock.now() - t;
+            self.observe(rec.offset + done as u64, end - done, took, purpose);
             let n = (end - done) as u64;
             match purpose {
                 Purpose::Demand => self.stats.stage2_bytes += n,

@@ -359,6 +359,22 @@ impl Walkthrough {
         source: Arc<dyn ByteSource>,
         params: RuntimeParams,
     ) -> Result<Self, RuntimeError> {
+        Self::start_with_clock(
+            skeleton,
+            source,
+            params,
+            Arc::new(crate::clock::SystemClock),
+        )
+    }
+
+    /// [`Walkthrough::start`] with P_I's timing read from `clock` (tests
+    /// pass a [`crate::clock::ManualClock`] that a simulated disk advances).
+    pub fn start_with_clock(
+        skeleton: Arc<Skeleton>,
+        source: Arc<dyn ByteSource>,
+        params: RuntimeParams,
+        clock: Arc<dyn crate::clock::Clock>,
+    ) -> Result<Self, RuntimeError> {
         params.check()?;
         if skeleton.reps.is_empty() {
             return Err(RuntimeError::NoReps);
@@ -386,6 +402,7 @@ impl Walkthrough {
             params,
             cmd_rx,
             reply_tx,
+            clock,
         );
         let handle = std::thread::Builder::new()
             .name("P_I".into())

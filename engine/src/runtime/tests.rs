@@ -84,6 +84,28 @@ pub(super) fn throttled(
     Arc::new(ThrottledSource::new(MemSource::new(bytes), model))
 }
 
+/// `src` behind a simulated device on `clock` (reads advance it by their
+/// modelled cost; nothing sleeps).
+pub(super) fn clocked(
+    src: &Arc<dyn ByteSource>,
+    latency: std::time::Duration,
+    bytes_per_sec: f64,
+    clock: &Arc<crate::clock::ManualClock>,
+) -> Arc<dyn ByteSource> {
+    use crate::disk::{ClockedSource, DiskModel};
+    let mut bytes = vec![0u8; src.len() as usize];
+    src.read_at(0, &mut bytes).unwrap();
+    let model = DiskModel {
+        latency,
+        bytes_per_sec,
+    };
+    Arc::new(ClockedSource::new(
+        MemSource::new(bytes),
+        model,
+        clock.clone(),
+    ))
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
     #[test]
@@ -313,10 +335,7 @@ impl ByteSource for SeekCounter {
 fn reading_through_short_gaps_saves_seeks_and_changes_nothing_drawn() {
     let (skel, mem) = wide(64);
     let budget = skel.reps.iter().map(|r| u64::from(r.len)).sum::<u64>() / 3;
-    // 10 ms seeks, 4 MB/s (a 16 KiB block takes 4 ms, well above the
-    // sleep granularity, which would otherwise make the learnt transfer
-    // rate look slower under load): reading through a gap of < 40 KB
-    // beats a seek.
+    // 10 ms seeks, 4 MB/s: reading through a gap of < 40 KB beats a seek.
     let poses: Vec<Pose> = (0..40)
         .map(|i| pose(i as f32 * 1.2, 0.5, 2.0, 1.2 + (i as f32 * 0.3).sin()))
         .collect();
@@ -327,8 +346,12 @@ fn reading_through_short_gaps_saves_seeks_and_changes_nothing_drawn() {
         (Mode::Pre, 0),
         (Mode::Pre, 1 << 20),
     ] {
+        // A simulated disk on a manual clock: the learnt costs are exact,
+        // whatever the machine's load (the throttled device this test used
+        // to sleep on made it fail under a busy machine).
+        let clock = Arc::new(crate::clock::ManualClock::new());
         let counter = Arc::new(SeekCounter {
-            inner: throttled(&mem, std::time::Duration::from_millis(10), 4e6),
+            inner: clocked(&mem, std::time::Duration::from_millis(10), 4e6, &clock),
             state: Default::default(),
         });
         let p = RuntimeParams {
@@ -336,7 +359,8 @@ fn reading_through_short_gaps_saves_seeks_and_changes_nothing_drawn() {
             block_bytes: 16 << 10,
             ..params(mode, budget)
         };
-        let mut walk = Walkthrough::start(skel.clone(), counter.clone(), p).unwrap();
+        let mut walk =
+            Walkthrough::start_with_clock(skel.clone(), counter.clone(), p, clock.clone()).unwrap();
         let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 0.0).unwrap();
         drop(walk);
         check_frames(&frames, budget);

@@ -50,7 +50,7 @@ impl Loader {
         let Some(own) = self.class_frustum else {
             return;
         };
-        let started = std::time::Instant::now();
+        let started = self.clock.now();
         let mut front = std::mem::take(&mut self.scratch_ahead);
         let mut keyed: Vec<(u32, u32, RepId)> = Vec::new();
         // First the view fronts (F_R) of each frame ahead, nearest first:
@@ -64,7 +64,7 @@ impl Loader {
             // A waiting fetch command comes first once the plan has taken
             // a millisecond: the fronts computed so far do.
             if stage > 0
-                && started.elapsed().as_secs_f64() > PLAN_BUDGET_S
+                && (self.clock.now() - started).as_secs_f64() > PLAN_BUDGET_S
                 && (self.pending.is_some() || self.preempted())
             {
                 break;

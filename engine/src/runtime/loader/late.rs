@@ -12,8 +12,6 @@
 //! draws them. Their bytes are demand bytes (`late_bytes`), reported with
 //! Stage II's.
 
-use std::time::Instant;
-
 use super::Loader;
 use crate::skeleton::RepId;
 
@@ -31,7 +29,7 @@ impl Loader {
         let Some(deadline) = crate::limits::after(at, f64::from(d)) else {
             return true;
         };
-        crate::limits::after(Instant::now(), need).is_some_and(|t| t <= deadline)
+        crate::limits::after(self.clock.now(), need).is_some_and(|t| t <= deadline)
     }
 
     /// Whether rep `r` is late: in this frame's front and past its deadline.

@@ -11,7 +11,7 @@
 //! before the next fetch command, preemption, and the [`Partial`] read that
 //! a preemption leaves to be resumed.
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use super::{LoadError, Loader, Purpose};
 use crate::skeleton::{RepId, Skeleton};
@@ -246,14 +246,15 @@ impl Loader {
         while at < to {
             let n = (to - at).min(self.params.block_bytes as u64) as usize;
             self.gap_buf.resize(n, 0);
-            let t = Instant::now();
+            let t = self.clock.now();
             let mut buf = std::mem::take(&mut self.gap_buf);
             let res = self.source.read_at(at, &mut buf[..n]);
             self.gap_buf = buf;
             if res.is_err() {
                 return false;
             }
-            self.observe(at, n, t.elapsed(), purpose);
+            let took = self.clock.now() - t;
+            self.observe(at, n, took, purpose);
             self.stats.skipped_bytes += n as u64;
             at += n as u64;
             if purpose == Purpose::Prefetch && at < to && self.preempted() {
@@ -318,7 +319,7 @@ impl Loader {
         let Some(due) = self.next_fetch else {
             return true;
         };
-        crate::limits::after(Instant::now(), need_s).is_some_and(|t| t <= due)
+        crate::limits::after(self.clock.now(), need_s).is_some_and(|t| t <= due)
     }
 
     /// One read from the queue `queue` picks (the next rep still wanted), and
