@@ -116,8 +116,7 @@ impl Loader {
         source: Arc<dyn ByteSource>,
         pools: Arc<Vec<u64>>,
         params: RuntimeParams,
-        cmds: Receiver<Cmd>,
-        replies: Sender<Reply>,
+        (cmds, replies): (Receiver<Cmd>, Sender<Reply>),
         clock: Arc<dyn crate::clock::Clock>,
     ) -> Self {
         let n = skeleton.reps.len();

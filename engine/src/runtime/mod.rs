@@ -400,8 +400,7 @@ impl Walkthrough {
             source,
             pools,
             params,
-            cmd_rx,
-            reply_tx,
+            (cmd_rx, reply_tx),
             clock,
         );
         let handle = std::thread::Builder::new()
