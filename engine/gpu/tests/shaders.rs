@@ -18,7 +18,7 @@ fn validate(path: &Path) -> naga::Module {
 
 #[test]
 fn all_wgsl_files_validate() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
     let mut files: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -33,7 +33,7 @@ fn all_wgsl_files_validate() {
 
 #[test]
 fn mesh_shader_has_the_renderers_entry_points() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shaders");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
     let m = validate(&dir.join("mesh.wgsl"));
     let stages: Vec<(String, naga::ShaderStage)> = m
         .entry_points
