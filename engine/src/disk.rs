@@ -98,12 +98,7 @@ impl<S: ByteSource> ByteSource for ThrottledSource<S> {
 
     fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
         let start = Instant::now();
-        let seek = {
-            let mut last = self.last_end.lock().unwrap_or_else(|e| e.into_inner());
-            let seek = *last != Some(offset);
-            *last = Some(offset + buf.len() as u64);
-            seek
-        };
+        let seek = is_seek(&self.last_end, offset, buf.len());
         self.inner.read_at(offset, buf)?;
         let due = self.model.cost(buf.len(), seek);
         if let Some(rest) = due.checked_sub(start.elapsed()) {
@@ -111,6 +106,15 @@ impl<S: ByteSource> ByteSource for ThrottledSource<S> {
         }
         Ok(())
     }
+}
+
+/// Whether a read of `len` bytes at `offset` seeks (does not continue
+/// where the previous one, recorded in `last_end`, ended); records its end.
+fn is_seek(last_end: &Mutex<Option<u64>>, offset: u64, len: usize) -> bool {
+    let mut last = last_end.lock().unwrap_or_else(|e| e.into_inner());
+    let seek = *last != Some(offset);
+    *last = Some(offset + len as u64);
+    seek
 }
 
 /// A simulated device: reads cost `model`'s time on a [`ManualClock`],
@@ -143,12 +147,7 @@ impl<S: ByteSource> ByteSource for ClockedSource<S> {
     }
 
     fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
-        let seek = {
-            let mut last = self.last_end.lock().unwrap_or_else(|e| e.into_inner());
-            let seek = *last != Some(offset);
-            *last = Some(offset + buf.len() as u64);
-            seek
-        };
+        let seek = is_seek(&self.last_end, offset, buf.len());
         self.inner.read_at(offset, buf)?;
         self.clock.advance(self.model.cost(buf.len(), seek));
         Ok(())

@@ -725,12 +725,7 @@ fn finish_node(
 
 fn transformed_bounds(b: Aabb, m: &Mat4) -> Aabb {
     let mut out = Aabb::EMPTY;
-    for k in 0..8 {
-        let p = glam::Vec3::new(
-            if k & 1 == 0 { b.min.x } else { b.max.x },
-            if k & 2 == 0 { b.min.y } else { b.max.y },
-            if k & 4 == 0 { b.min.z } else { b.max.z },
-        );
+    for p in b.corners() {
         out.add(m.transform_point3(p));
     }
     out

@@ -25,6 +25,17 @@ impl Aabb {
         max: Vec3::splat(f32::NEG_INFINITY),
     };
 
+    /// The eight corners (bit 0 of the index picks x, bit 1 y, bit 2 z).
+    pub fn corners(&self) -> [Vec3; 8] {
+        std::array::from_fn(|k| {
+            Vec3::new(
+                if k & 1 == 0 { self.min.x } else { self.max.x },
+                if k & 2 == 0 { self.min.y } else { self.max.y },
+                if k & 4 == 0 { self.min.z } else { self.max.z },
+            )
+        })
+    }
+
     /// Whether no point was added.
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x

@@ -37,17 +37,7 @@ fn can_run(test: &str) -> bool {
         std::env::var_os("HLOD_REQUIRE_GPU").is_none(),
         "{test}: {why}, although HLOD_REQUIRE_GPU is set"
     );
-    use std::io::Write;
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target");
-    let _ = std::fs::create_dir_all(&dir);
-    if let Ok(mut f) = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(dir.join("test-skips.txt"))
-    {
-        let _ = writeln!(f, "SKIPPED {test}: {why}");
-    }
-    eprintln!("SKIPPED {test}: {why}");
+    e2e_tests::record_skip(test, &why);
     false
 }
 

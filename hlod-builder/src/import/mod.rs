@@ -241,13 +241,8 @@ fn choose_origin(placed: &[nodes::Placement], boxes: &[Option<Aabb>]) -> [f64; 3
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for p in placed {
         let Some(b) = &boxes[p.mesh] else { continue };
-        for k in 0..8 {
-            let c = DVec3::new(
-                f64::from(if k & 1 == 0 { b.min.x } else { b.max.x }),
-                f64::from(if k & 2 == 0 { b.min.y } else { b.max.y }),
-                f64::from(if k & 4 == 0 { b.min.z } else { b.max.z }),
-            );
-            let w = p.world.transform_point3(c);
+        for c in b.corners() {
+            let w = p.world.transform_point3(c.as_dvec3());
             lo = lo.min(w);
             hi = hi.max(w);
         }

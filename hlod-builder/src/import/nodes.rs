@@ -98,13 +98,8 @@ fn in_range(world: &DMat4, b: &Aabb) -> bool {
     if !world.is_finite() {
         return false;
     }
-    (0..8).all(|k| {
-        let p = DVec3::new(
-            f64::from(if k & 1 == 0 { b.min.x } else { b.max.x }),
-            f64::from(if k & 2 == 0 { b.min.y } else { b.max.y }),
-            f64::from(if k & 4 == 0 { b.min.z } else { b.max.z }),
-        );
-        let w = world.transform_point3(p);
+    b.corners().iter().all(|c| {
+        let w = world.transform_point3(c.as_dvec3());
         w.is_finite() && w.abs().max_element() <= MAX_COORD
     })
 }
