@@ -18,14 +18,17 @@ use std::time::Instant;
 use engine::format::objects::{ObjectTable, Run};
 use engine::format::{NONE, NodeRecord, RepKind, RepMesh, RepRecord, SceneMeta, SceneWriter};
 use engine::{FormatError, Skeleton};
-use glam::{Mat3, Mat4};
+
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
+mod leaf;
+
 use crate::cluster::{ClusterItem, cluster};
 use crate::import::{self, ImportError, Imported};
-use crate::lod::{LodParams, hlod, lod_chain, lod_chain_from, optimize, strictly_above};
+use crate::lod::{LodParams, hlod, lod_chain, strictly_above};
 use crate::mesh::{Aabb, Mesh};
+use leaf::{Item, LeafGeometry, item_object, leaf_levels, object_infos, transformed_bounds};
 
 /// Parameters of a build.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -150,24 +153,6 @@ pub struct BuildStats {
     pub origin: [f64; 3],
     /// Bytes of the object section (names, extras, merged leaves' runs).
     pub object_bytes: u64,
-}
-
-/// A leaf item: one instance, or one chunk of a large object.
-enum Item {
-    Instance {
-        mesh: usize,
-        transform: Mat4,
-        object: u32,
-    },
-    Chunk {
-        mesh: Mesh,
-        object: u32,
-    },
-    /// A large object in world space, whose finest rep is a view-dependence tree.
-    Tree {
-        mesh: Mesh,
-        object: u32,
-    },
 }
 
 /// A finished node's coarsest rep, kept for its parent's HLOD.
@@ -529,127 +514,6 @@ fn build_in_make_order<W: Write + std::io::Seek>(
     Ok(stats)
 }
 
-fn item_object(item: &Item) -> u32 {
-    match item {
-        Item::Instance { object, .. } | Item::Chunk { object, .. } | Item::Tree { object, .. } => {
-            *object
-        }
-    }
-}
-
-/// Each object's JSON text for the object section: names, extras, and its
-/// world-space box (scene box plus origin).
-fn object_infos(imported: &Imported) -> Vec<String> {
-    let o = glam::DVec3::from(imported.origin);
-    imported
-        .instances
-        .iter()
-        .enumerate()
-        .map(|(k, inst)| {
-            let mut v = imported.object_info(k);
-            if let (Some(m), serde_json::Value::Object(map)) = (&imported.meshes[inst.mesh], &mut v)
-            {
-                let b = transformed_bounds(m.bounds(), &inst.transform);
-                let w = |p: glam::Vec3| (p.as_dvec3() + o).to_array().to_vec();
-                map.insert("box_min".into(), w(b.min).into());
-                map.insert("box_max".into(), w(b.max).into());
-            }
-            v.to_string()
-        })
-        .collect()
-}
-
-/// A leaf's static LODs (coarsest first), its view-dependence tree, and
-/// for a merged leaf the object of each run of its finest rep's triangles.
-type LeafGeometry = (
-    Vec<crate::lod::Level>,
-    Option<crate::vdt::TreeRep>,
-    Option<Vec<Run>>,
-);
-
-/// The LOD chain of a leaf, in world space, coarsest first, and the tree of
-/// a large object.
-fn leaf_levels<'a>(
-    leaf_items: &[u32],
-    items: &[Item],
-    imported: &Imported,
-    params: &BuildParams,
-    chain_of: &(dyn Fn(usize) -> Option<&'a Vec<crate::lod::Level>> + Sync),
-) -> LeafGeometry {
-    if let [k] = leaf_items {
-        match &items[*k as usize] {
-            Item::Instance {
-                mesh, transform, ..
-            } => {
-                let scale = max_scale(transform);
-                let local;
-                let chain = match chain_of(*mesh) {
-                    Some(c) => c,
-                    None => {
-                        local = lod_chain(
-                            imported.meshes[*mesh].as_ref().expect("usable"),
-                            &params.lod,
-                        );
-                        &local
-                    }
-                };
-                let levels = chain
-                    .iter()
-                    .map(|l| crate::lod::Level {
-                        mesh: l.mesh.transformed(transform),
-                        error: l.error * scale,
-                    })
-                    .collect();
-                return (levels, None, None);
-            }
-            Item::Chunk { mesh, .. } => {
-                let lod = LodParams {
-                    lock_border: true,
-                    ..params.lod
-                };
-                return (lod_chain(mesh, &lod), None, None);
-            }
-            Item::Tree { mesh, .. } => {
-                let (levels, tree) = crate::vdt::tree_levels(mesh, &params.lod, params.vdt_keep);
-                return (levels, tree, None);
-            }
-        }
-    }
-    let parts: Vec<Mesh> = leaf_items
-        .iter()
-        .map(|&k| match &items[k as usize] {
-            Item::Instance {
-                mesh, transform, ..
-            } => imported.meshes[*mesh]
-                .as_ref()
-                .expect("usable")
-                .transformed(transform),
-            Item::Chunk { mesh, .. } | Item::Tree { mesh, .. } => mesh.clone(),
-        })
-        .collect();
-    // Each object optimised on its own, so that its triangles stay one run
-    // of the finest rep (what picking resolves a merged leaf's hit by).
-    let optimized: Vec<Mesh> = parts.iter().map(optimize).collect();
-    let mut runs: Vec<Run> = Vec::new();
-    let mut end = 0u32;
-    for (&k, m) in leaf_items.iter().zip(&optimized) {
-        end += m.tri_count() as u32;
-        let object = item_object(&items[k as usize]);
-        match runs.last_mut() {
-            Some(r) if r.object == object => r.tri_end = end,
-            _ => runs.push(Run {
-                object,
-                tri_end: end,
-            }),
-        }
-    }
-    (
-        lod_chain_from(Mesh::merge(&optimized), &params.lod),
-        None,
-        Some(runs),
-    )
-}
-
 /// Writes a node's levels (coarsest first); `floor` is an error every rep must
 /// exceed (the children's for an HLOD). Returns the records and the coarsest level.
 fn write_chain<W: Write + std::io::Seek>(
@@ -721,21 +585,4 @@ fn finish_node(
     }
     (n.bbox_min, n.bbox_max) = b.to_arrays();
     n.color = u32::from_le_bytes(color_mesh.dominant_color());
-}
-
-fn transformed_bounds(b: Aabb, m: &Mat4) -> Aabb {
-    let mut out = Aabb::EMPTY;
-    for p in b.corners() {
-        out.add(m.transform_point3(p));
-    }
-    out
-}
-
-/// Largest stretch of the transform's linear part (scales object-space errors).
-fn max_scale(m: &Mat4) -> f32 {
-    let l = Mat3::from_mat4(*m);
-    l.x_axis
-        .length()
-        .max(l.y_axis.length())
-        .max(l.z_axis.length())
 }
