@@ -114,6 +114,8 @@ struct App {
     complete: Option<(bool, u32)>,
     /// The frame at which a scene first failed to open.
     failed_at: Option<u64>,
+    /// The pose the selection's highlight was last drawn for.
+    highlight_pose: Option<Pose>,
 }
 
 impl App {
@@ -163,6 +165,7 @@ impl App {
             started: Instant::now(),
             complete: None,
             failed_at: None,
+            highlight_pose: None,
         }
     }
 

@@ -68,20 +68,29 @@ pub(super) fn check_frames(frames: &[FrameMetrics], budget: u64) {
     }
 }
 
+/// A copy of `src` in memory and the disk model `latency` a seek, `bytes_per_sec`.
+fn copy_and_model(
+    src: &Arc<dyn ByteSource>,
+    latency: std::time::Duration,
+    bytes_per_sec: f64,
+) -> (MemSource, crate::disk::DiskModel) {
+    let mut bytes = vec![0u8; src.len() as usize];
+    src.read_at(0, &mut bytes).unwrap();
+    let model = crate::disk::DiskModel {
+        latency,
+        bytes_per_sec,
+    };
+    (MemSource::new(bytes), model)
+}
+
 /// `src` behind a disk model: `latency` a seek, `bytes_per_sec`.
 pub(super) fn throttled(
     src: &Arc<dyn ByteSource>,
     latency: std::time::Duration,
     bytes_per_sec: f64,
 ) -> Arc<dyn ByteSource> {
-    use crate::disk::{DiskModel, ThrottledSource};
-    let mut bytes = vec![0u8; src.len() as usize];
-    src.read_at(0, &mut bytes).unwrap();
-    let model = DiskModel {
-        latency,
-        bytes_per_sec,
-    };
-    Arc::new(ThrottledSource::new(MemSource::new(bytes), model))
+    let (mem, model) = copy_and_model(src, latency, bytes_per_sec);
+    Arc::new(crate::disk::ThrottledSource::new(mem, model))
 }
 
 /// `src` behind a simulated device on `clock` (reads advance it by their
@@ -92,18 +101,8 @@ pub(super) fn clocked(
     bytes_per_sec: f64,
     clock: &Arc<crate::clock::ManualClock>,
 ) -> Arc<dyn ByteSource> {
-    use crate::disk::{ClockedSource, DiskModel};
-    let mut bytes = vec![0u8; src.len() as usize];
-    src.read_at(0, &mut bytes).unwrap();
-    let model = DiskModel {
-        latency,
-        bytes_per_sec,
-    };
-    Arc::new(ClockedSource::new(
-        MemSource::new(bytes),
-        model,
-        clock.clone(),
-    ))
+    let (mem, model) = copy_and_model(src, latency, bytes_per_sec);
+    Arc::new(crate::disk::ClockedSource::new(mem, model, clock.clone()))
 }
 
 proptest! {

@@ -56,13 +56,23 @@ pub struct Buffers<'a> {
     pub doc: &'a Doc,
     pub data: Vec<Vec<u8>>,
     decoded: Vec<OnceCell<Result<Vec<u8>, String>>>,
+    /// Bytes the buffers hold or decode to: no accessor has more elements.
+    capacity: u64,
 }
 
 impl<'a> Buffers<'a> {
     pub fn new(doc: &'a Doc, data: Vec<Vec<u8>>) -> Self {
+        let capacity = data.iter().map(|b| b.len() as u64).sum::<u64>()
+            + doc
+                .buffer_views
+                .iter()
+                .filter_map(|v| v.extensions.meshopt())
+                .map(|m| m.count.saturating_mul(m.byte_stride))
+                .fold(0u64, u64::saturating_add);
         Self {
             doc,
             data,
+            capacity,
             decoded: (0..doc.buffer_views.len())
                 .map(|_| OnceCell::new())
                 .collect(),
@@ -177,15 +187,7 @@ fn each_element(
 /// The most elements one accessor may have: what fits in the buffers'
 /// bytes (a view-less accessor of zeros is bounded the same way).
 fn check_count(acc: &Accessor, bufs: &Buffers) -> Result<usize, String> {
-    let total: u64 = bufs.data.iter().map(|b| b.len() as u64).sum::<u64>()
-        + bufs
-            .doc
-            .buffer_views
-            .iter()
-            .filter_map(|v| v.extensions.meshopt())
-            .map(|m| m.count.saturating_mul(m.byte_stride))
-            .fold(0u64, u64::saturating_add);
-    if acc.count > total.max(1 << 20) {
+    if acc.count > bufs.capacity.max(1 << 20) {
         return Err(format!(
             "count {} is more than its file's buffers could hold",
             acc.count

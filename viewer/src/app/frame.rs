@@ -33,8 +33,9 @@ impl App {
             self.picked = true;
             self.pick_at(pose, x, y);
         }
-        if self.selection.is_some() {
-            // The highlight follows the camera.
+        if self.selection.is_some() && self.highlight_pose != Some(*pose) {
+            // The highlight follows the camera (repainted only when it moved).
+            self.highlight_pose = Some(*pose);
             self.ui_dirty = true;
         }
     }
