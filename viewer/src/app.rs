@@ -27,6 +27,8 @@ use crate::session::{Session, Settings};
 use crate::ui::{self, Sample, UiState};
 
 /// Frames kept for the overlay's plots.
+/// At most this many frames a screenshot waits for the overlay.
+const MAX_SHOT_WAITS: u32 = 30;
 const HISTORY: usize = 300;
 
 /// Runs the viewer until the window closes or `--exit-after` frames.
@@ -116,6 +118,10 @@ struct App {
     failed_at: Option<u64>,
     /// The pose the selection's highlight was last drawn for.
     highlight_pose: Option<Pose>,
+    /// Frames a screenshot has waited for the overlay to settle, and
+    /// whether `--screenshot` has been taken for `--exit-when-complete`.
+    shot_waits: u32,
+    exit_shot_taken: bool,
 }
 
 impl App {
@@ -166,6 +172,8 @@ impl App {
             complete: None,
             failed_at: None,
             highlight_pose: None,
+            shot_waits: 0,
+            exit_shot_taken: false,
         }
     }
 
@@ -442,7 +450,21 @@ impl App {
         if exiting && let Some(p) = &self.args.screenshot {
             self.screenshot_to = Some(p.clone());
         }
-        if let Some(to) = self.screenshot_to.take() {
+        // A screenshot waits (a few frames at most) until the overlay has
+        // settled: a new window is invisible in its first pass and fades in
+        // over the next, and egui asks for another pass at once until then.
+        if self.screenshot_to.is_some()
+            && !exiting
+            && !self.args.no_overlay
+            && self.ui_dirty
+            && self.shot_waits < MAX_SHOT_WAITS
+        {
+            self.shot_waits += 1;
+        } else if let Some(to) = self.screenshot_to.take() {
+            self.shot_waits = 0;
+            if self.args.screenshot.as_ref() == Some(&to) {
+                self.exit_shot_taken = true;
+            }
             let img = match &self.session {
                 Some(s) if offscreen => s.renderer.read_texture(s.renderer.target_texture()),
                 _ if gfx.copy_src => engine_gpu::read_texture(&gfx.ctx, &frame.texture.texture),
@@ -470,14 +492,14 @@ impl App {
                 && self.complete_at.is_some_and(|f| self.frames > f)
                 && (self.args.pick.is_none() || self.picked)
             {
-                if let Some(p) = &self.args.screenshot
-                    && self.screenshot_to.is_none()
-                    && self.complete_at.is_some_and(|f| self.frames == f + 1)
-                {
-                    // One more frame, so that the screenshot shows the pick.
-                    self.screenshot_to = Some(p.clone());
-                } else {
-                    exiting = true;
+                match &self.args.screenshot {
+                    // Once more, so that the screenshot shows the pick.
+                    Some(p) if !self.exit_shot_taken => {
+                        if self.screenshot_to.is_none() {
+                            self.screenshot_to = Some(p.clone());
+                        }
+                    }
+                    _ => exiting = true,
                 }
             }
         }
