@@ -31,18 +31,51 @@ impl Cell for f64 {
     }
 }
 
-/// Defines [`FrameMetrics`] from its field list, with the CSV header and row.
+/// Defines [`FrameMetrics`] and the [`LoaderCounters`] embedded in it from
+/// one field list (`loader.name: type` for P_I's), with the CSV header and
+/// row, whose columns follow the list.
 macro_rules! frame_metrics {
-    ($(#[$sdoc:meta])* { $( $(#[$doc:meta])* $field:ident : $ty:ty ),* $(,)? }) => {
-        $(#[$sdoc])*
+    // Sorts each field into FrameMetrics' own or the loader's, and keeps
+    // the column order: `name (prefix)`.
+    (@sort [$($own:tt)*] [$($ldr:tt)*] [$($col:tt)*]
+        $(#[$doc:meta])* loader . $field:ident : $ty:ty, $($rest:tt)*) => {
+        frame_metrics!(@sort [$($own)*] [$($ldr)* $(#[$doc])* $field: $ty,]
+            [$($col)* $field (loader)] $($rest)*);
+    };
+    (@sort [$($own:tt)*] [$($ldr:tt)*] [$($col:tt)*]
+        $(#[$doc:meta])* $field:ident : $ty:ty, $($rest:tt)*) => {
+        frame_metrics!(@sort [$($own)* $(#[$doc])* $field: $ty,] [$($ldr)*]
+            [$($col)* $field ()] $($rest)*);
+    };
+    (@sort [$($(#[$odoc:meta])* $own:ident : $oty:ty,)*]
+        [$($(#[$ldoc:meta])* $ldr:ident : $lty:ty,)*]
+        [$($col:ident ($($pre:ident)?))*]) => {
+        /// What one frame did. `stage2_bytes` were fetched on demand while
+        /// P_R waited to render; `prefetch_bytes` were loaded by P_I since
+        /// the previous frame's Stage II ended (Stages III and I).
+        ///
+        /// The struct, P_I's [`LoaderCounters`] in it, the CSV header
+        /// ([`CSV_HEADER`], [`FrameMetrics::COLUMNS`]) and the CSV row
+        /// ([`FrameMetrics::csv_row`]) come from one list: a new counter is
+        /// one line there (its CSV cell follows its type: integers and names
+        /// as they are, milliseconds with three decimals).
         #[derive(Clone, Debug, Default, PartialEq)]
         pub struct FrameMetrics {
-            $( $(#[$doc])* pub $field: $ty, )*
+            $( $(#[$odoc])* pub $own: $oty, )*
+            /// P_I's counters, as its Stage II reported them.
+            pub loader: LoaderCounters,
+        }
+
+        /// P_I's counters since the previous frame's Stage II, reported at
+        /// the end of this frame's (the loader fills them in place).
+        #[derive(Clone, Copy, Debug, Default, PartialEq)]
+        pub struct LoaderCounters {
+            $( $(#[$ldoc])* pub $ldr: $lty, )*
         }
 
         /// The CSV header: [`FrameMetrics::COLUMNS`] joined by commas.
         pub const CSV_HEADER: &str = {
-            const H: &str = concat!($(stringify!($field), ","),*);
+            const H: &str = concat!($(stringify!($col), ","),*);
             // Without the trailing comma.
             match H.as_bytes().split_last() {
                 Some((_, rest)) => match std::str::from_utf8(rest) {
@@ -54,14 +87,15 @@ macro_rules! frame_metrics {
         };
 
         impl FrameMetrics {
-            /// The CSV columns, in order: the field names.
-            pub const COLUMNS: &'static [&'static str] = &[$(stringify!($field)),*];
+            /// The CSV columns, in order: the field names (P_I's without
+            /// their `loader.`).
+            pub const COLUMNS: &'static [&'static str] = &[$(stringify!($col)),*];
 
             /// One CSV line (no newline), in [`CSV_HEADER`]'s order.
             pub fn csv_row(&self) -> String {
                 let mut s = String::with_capacity(256);
                 $(
-                    Cell::cell(&self.$field, &mut s);
+                    Cell::cell(&self $(.$pre)? .$col, &mut s);
                     s.push(',');
                 )*
                 s.pop();
@@ -69,17 +103,12 @@ macro_rules! frame_metrics {
             }
         }
     };
+    ({ $($body:tt)* }) => {
+        frame_metrics!(@sort [] [] [] $($body)*);
+    };
 }
 
 frame_metrics! {
-    /// What one frame did. `stage2_bytes` were fetched on demand while P_R
-    /// waited to render; `prefetch_bytes` were loaded by P_I since the previous
-    /// frame's Stage II ended (Stages III and I).
-    ///
-    /// The struct, its CSV header ([`CSV_HEADER`], [`FrameMetrics::COLUMNS`])
-    /// and its CSV row ([`FrameMetrics::csv_row`]) come from this one list: a new
-    /// counter is one line here (its CSV cell follows its type: integers and
-    /// names as they are, milliseconds with three decimals).
     {
         frame: u32,
         mode: &'static str,
@@ -89,35 +118,35 @@ frame_metrics! {
         front_reps: u32,
         front_tris: u64,
         front_bytes: u64,
-        missing_reps: u32,
-        stage2_bytes: u64,
-        prefetch_bytes: u64,
-        resident_bytes: u64,
+        loader.missing_reps: u32,
+        loader.stage2_bytes: u64,
+        loader.prefetch_bytes: u64,
+        loader.resident_bytes: u64,
         /// The largest resident footprint at any moment since the previous frame.
-        max_resident_bytes: u64,
+        loader.max_resident_bytes: u64,
         budget_bytes: u64,
-        evictions: u32,
+        loader.evictions: u32,
         /// Front reps drawn as a resident ancestor.
         substituted: u32,
         /// Front reps drawn as themselves.
         drawn_reps: u32,
         drawn_tris: u64,
-        read_errors: u32,
+        loader.read_errors: u32,
         nodes_visited: u32,
         /// Misses whose node was in the previous front (an LOD switch).
-        miss_lod: u32,
+        loader.miss_lod: u32,
         /// Misses whose ancestor or descendant node was (an HLOD switch).
-        miss_hier: u32,
+        loader.miss_hier: u32,
         /// Misses of newly visible parts of the scene.
-        miss_new: u32,
+        loader.miss_new: u32,
         /// Time P_I spent reading for Stage II and for prefetching since the
         /// previous frame (the disk's busy time).
-        stage2_io_ms: f64,
-        prefetch_io_ms: f64,
+        loader.stage2_io_ms: f64,
+        loader.prefetch_io_ms: f64,
         /// Rep geometry held by the renderer on the GPU (0 without a GPU).
         gpu_bytes: u64,
         /// Prefetch candidates queued in P_I's bins at the end of Stage II.
-        prefetch_queue: u32,
+        loader.prefetch_queue: u32,
         /// View-dependence trees drawn this frame, their splits + collapses
         /// (*Adapt*), active triangles, misses (a wanted split or collapse whose
         /// meta-node was absent), meta-nodes read since the previous frame, the
@@ -131,24 +160,24 @@ frame_metrics! {
         vdt_bytes: u64,
         vdt_ms: f64,
         /// Bytes of gaps P_I read through instead of seeking over (not kept).
-        skipped_bytes: u64,
+        loader.skipped_bytes: u64,
         /// Prefetch reads continued after a fetch command preempted them.
-        resumed: u32,
+        loader.resumed: u32,
         /// Bytes of prefetched reps evicted before they were ever drawn.
-        wasted_bytes: u64,
+        loader.wasted_bytes: u64,
         /// Reads that did not continue where P_I's previous read ended, in
         /// Stage II and in prefetching.
-        stage2_seeks: u32,
-        prefetch_seeks: u32,
+        loader.stage2_seeks: u32,
+        loader.prefetch_seeks: u32,
         /// Front reps drawn as an ancestor because the stall deadline passed
         /// (also counted in `substituted`), and bytes read on demand after
         /// their frame's deadline.
-        late_reps: u32,
-        late_bytes: u64,
+        loader.late_reps: u32,
+        loader.late_bytes: u64,
         /// P_I's time classifying fronts for prefetching (the F_I front, its
         /// bins and the lookahead fronts) since the previous frame; CPU time
         /// on P_I's thread, not the disk's.
-        classify_ms: f64,
+        loader.classify_ms: f64,
     }
 }
 
@@ -243,11 +272,11 @@ impl Recorder {
         }
         a.frames += 1;
         a.max_ms = a.max_ms.max(f.frame_ms);
-        a.stage2_bytes += f.stage2_bytes + f.late_bytes;
-        a.prefetch_bytes += f.prefetch_bytes;
-        a.max_resident_bytes = a.max_resident_bytes.max(f.max_resident_bytes);
+        a.stage2_bytes += f.loader.stage2_bytes + f.loader.late_bytes;
+        a.prefetch_bytes += f.loader.prefetch_bytes;
+        a.max_resident_bytes = a.max_resident_bytes.max(f.loader.max_resident_bytes);
         a.substituted += u64::from(f.substituted);
-        a.late_reps += u64::from(f.late_reps);
+        a.late_reps += u64::from(f.loader.late_reps);
         a.metas_loaded += u64::from(f.metas_loaded);
         a.max_vdt_bytes = a.max_vdt_bytes.max(f.vdt_bytes);
         self.sum_ms += f.frame_ms;
@@ -262,8 +291,8 @@ impl Recorder {
         self.trace.push(TracePoint {
             frame_ms: f.frame_ms,
             front_bytes: f.front_bytes,
-            stage2_bytes: f.stage2_bytes,
-            max_resident_bytes: f.max_resident_bytes,
+            stage2_bytes: f.loader.stage2_bytes,
+            max_resident_bytes: f.loader.max_resident_bytes,
             substituted: f.substituted,
         });
     }
@@ -413,7 +442,7 @@ mod tests {
     #[test]
     fn the_generated_csv_is_the_one_the_tools_and_plots_read() {
         // The header and cell formats as they were written by hand before
-        // the column list generated them.
+        // the column list generated them (P_I's counters among P_R's).
         assert_eq!(
             CSV_HEADER,
             "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms"
@@ -422,8 +451,11 @@ mod tests {
             frame: 7,
             mode: "pre",
             frame_ms: 12.34567,
-            stage2_bytes: 4096,
-            classify_ms: 0.5,
+            loader: LoaderCounters {
+                stage2_bytes: 4096,
+                classify_ms: 0.5,
+                ..Default::default()
+            },
             ..Default::default()
         };
         let row = f.csv_row();
@@ -466,7 +498,10 @@ mod tests {
                 frame: i,
                 mode: "pre",
                 frame_ms: f64::from(i % 7) * 10.0,
-                stage2_bytes: u64::from(i) * 100,
+                loader: LoaderCounters {
+                    stage2_bytes: u64::from(i) * 100,
+                    ..Default::default()
+                },
                 vdt_trees: i % 2,
                 adapt: i,
                 vdt_misses: i % 3,

@@ -260,11 +260,11 @@ impl App {
             Err(e) => {
                 let msg = match model {
                     Some(m) => format!(
-                        "cannot open {} (built into {}): {e}",
+                        "cannot open {} (built into {}): {e:#}",
                         m.display(),
                         path.display()
                     ),
-                    None => format!("cannot open {}: {e}", path.display()),
+                    None => format!("cannot open {}: {e:#}", path.display()),
                 };
                 self.open_failed = Some(msg.clone());
                 self.report(msg);
@@ -373,7 +373,7 @@ impl App {
                     Ok(m) => metrics = Some(m),
                     Err(e) => {
                         gfx.clear(&target);
-                        self.error = Some(e);
+                        self.error = Some(format!("{e:#}"));
                     }
                 }
             }
@@ -529,7 +529,7 @@ impl App {
         }
         if let (Some(s), Some(sess), Some(gfx)) = (a.settings, &mut self.session, &self.gfx) {
             if let Err(e) = sess.apply(&gfx.ctx, s) {
-                self.report(e);
+                self.report(format!("{e:#}"));
             } else {
                 self.settings = s;
             }
@@ -621,7 +621,7 @@ impl ApplicationHandler for App {
                     && size.height > 0
                     && let Err(e) = s.resize(size.width, size.height)
                 {
-                    self.report(e);
+                    self.report(format!("{e:#}"));
                 }
             }
             WindowEvent::RedrawRequested => self.redraw(event_loop),

@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use anyhow::{Context, Result};
 use engine::format::objects::ObjectTable;
 use engine::{FileSource, SceneFile};
 use glam::Vec3;
@@ -37,14 +38,14 @@ pub struct Selection {
 }
 
 impl Picker {
-    pub fn open(path: &Path, file: &std::fs::File) -> Result<Self, String> {
-        let named = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-        let scene = file
+    pub fn open(path: &Path, file: &std::fs::File) -> Result<Self> {
+        let named = || path.display().to_string();
+        let src = file
             .try_clone()
             .and_then(FileSource::from_file)
-            .map_err(|e| named(&e))
-            .and_then(|s| SceneFile::from_source(s).map_err(|e| named(&e)))?;
-        let objects = scene.read_objects().map_err(|e| named(&e))?;
+            .with_context(named)?;
+        let scene = SceneFile::from_source(src).with_context(named)?;
+        let objects = scene.read_objects().with_context(named)?;
         Ok(Self { scene, objects })
     }
 
@@ -56,11 +57,9 @@ impl Picker {
         x: f32,
         y: f32,
         origin: [f64; 3],
-    ) -> Result<Option<Selection>, String> {
+    ) -> Result<Option<Selection>> {
         let (o, d) = pose.ray(size.0, size.1, x, y);
-        let Some(hit) =
-            engine::pick::pick(&self.scene, &self.objects, o, d).map_err(|e| e.to_string())?
-        else {
+        let Some(hit) = engine::pick::pick(&self.scene, &self.objects, o, d)? else {
             return Ok(None);
         };
         let world = |p: Vec3| -> [f64; 3] {

@@ -6,6 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use anyhow::{Context, Result};
+
 use engine::disk::{DiskModel, scene_source};
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::{SceneFile, Skeleton};
@@ -60,14 +62,14 @@ impl Session {
         budget: Option<&str>,
         size: (u32, u32),
         color_format: wgpu::TextureFormat,
-    ) -> Result<Self, String> {
-        let named = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
-        let file = std::fs::File::open(path).map_err(|e| named(&e))?;
-        let scene = file
+    ) -> Result<Self> {
+        let named = || path.display().to_string();
+        let file = std::fs::File::open(path).with_context(named)?;
+        let src = file
             .try_clone()
             .and_then(engine::FileSource::from_file)
-            .map_err(|e| named(&e))
-            .and_then(|src| SceneFile::from_source(src).map_err(|e| named(&e)))?;
+            .with_context(named)?;
+        let scene = SceneFile::from_source(src).with_context(named)?;
         let skeleton = Arc::new(scene.skeleton().clone());
         let origin = scene.meta().origin;
         let data_bytes: u64 = skeleton.reps.iter().map(|r| u64::from(r.len)).sum();
@@ -75,7 +77,7 @@ impl Session {
             let bytes = if b.trim() == "auto" {
                 engine_cli::auto_budget(&skeleton)
             } else {
-                engine_cli::parse_budget(b, data_bytes.max(1)).map_err(|e| e.to_string())?
+                engine_cli::parse_budget(b, data_bytes.max(1))?
             };
             settings.budget_fraction = (bytes as f64 / data_bytes.max(1) as f64).clamp(1e-6, 1.0);
         }
@@ -109,7 +111,7 @@ impl Session {
         pose: &engine::camera::Pose,
         x: f32,
         y: f32,
-    ) -> Result<Option<crate::picking::Selection>, String> {
+    ) -> Result<Option<crate::picking::Selection>> {
         if self.picker.is_none() {
             let p = crate::picking::Picker::open(&self.path, &self.file)?;
             self.picker = Some(p);
@@ -125,13 +127,12 @@ impl Session {
         &mut self,
         front_pose: &engine::camera::Pose,
         draw_pose: &engine::camera::Pose,
-    ) -> Result<engine::metrics::FrameMetrics, String> {
+    ) -> Result<engine::metrics::FrameMetrics> {
         let walk = self
             .walk
             .as_mut()
-            .ok_or_else(|| "the walkthrough is not running (see the error above)".to_string())?;
-        walk.frame_split(front_pose, draw_pose, &mut self.renderer)
-            .map_err(|e| e.to_string())
+            .context("the walkthrough is not running (see the error above)")?;
+        Ok(walk.frame_split(front_pose, draw_pose, &mut self.renderer)?)
     }
 
     /// The scene's bounds.
@@ -147,7 +148,7 @@ impl Session {
 
     /// Applies new settings: a restart when the runtime's parameters change,
     /// just a new colouring otherwise.
-    pub fn apply(&mut self, ctx: &GpuContext, s: Settings) -> Result<(), String> {
+    pub fn apply(&mut self, ctx: &GpuContext, s: Settings) -> Result<()> {
         if s == self.settings {
             return Ok(());
         }
@@ -177,14 +178,12 @@ impl Session {
     }
 
     /// Follows a window resize.
-    pub fn resize(&mut self, width: u32, height: u32) -> Result<(), String> {
-        self.renderer
-            .resize(width, height)
-            .map_err(|e| e.to_string())?;
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<()> {
+        self.renderer.resize(width, height)?;
         self.settings.params.width_px = width;
         self.settings.params.height_px = height;
         if let Some(w) = &mut self.walk {
-            w.set_viewport(width, height).map_err(|e| e.to_string())?;
+            w.set_viewport(width, height)?;
         }
         Ok(())
     }
@@ -202,19 +201,19 @@ struct Target<'a> {
     data_bytes: u64,
 }
 
-fn start_walk(t: &Target<'_>, s: &Settings) -> Result<Walkthrough, String> {
+fn start_walk(t: &Target<'_>, s: &Settings) -> Result<Walkthrough> {
     let model = if s.mode == Mode::Incore { None } else { s.disk };
     let source = t
         .file
         .try_clone()
         .and_then(|f| scene_source(f, model))
-        .map_err(|e| format!("{}: {e}", t.path.display()))?;
+        .with_context(|| t.path.display().to_string())?;
     let params = RuntimeParams {
         mode: s.mode,
         budget_bytes: budget(t.data_bytes, s.budget_fraction),
         ..s.params
     };
-    Walkthrough::start(t.skel.clone(), source, params).map_err(|e| e.to_string())
+    Ok(Walkthrough::start(t.skel.clone(), source, params)?)
 }
 
 fn start(
@@ -223,7 +222,7 @@ fn start(
     s: &Settings,
     size: (u32, u32),
     color_format: wgpu::TextureFormat,
-) -> Result<(Walkthrough, GpuRenderer), String> {
+) -> Result<(Walkthrough, GpuRenderer)> {
     let walk = start_walk(t, s)?;
     let capacity = if s.mode == Mode::Incore {
         t.data_bytes
@@ -239,7 +238,6 @@ fn start(
             colouring: s.colouring,
             color_format,
         },
-    )
-    .map_err(|e| e.to_string())?;
+    )?;
     Ok((walk, renderer))
 }

@@ -136,23 +136,23 @@ pub fn draw(
                 ));
                 ui.label(format!(
                     "resident {:.1} / {:.1} MiB, GPU {:.1} MiB",
-                    m.max_resident_bytes as f64 / MIB,
+                    m.loader.max_resident_bytes as f64 / MIB,
                     v.budget_bytes as f64 / MIB,
                     m.gpu_bytes as f64 / MIB
                 ));
                 ui.label(format!(
                     "Stage II {:.2} MiB, prefetched {:.2} MiB, missing {} (LOD {} / HLOD {} / new {}), substituted {}",
-                    m.stage2_bytes as f64 / MIB,
-                    m.prefetch_bytes as f64 / MIB,
-                    m.missing_reps,
-                    m.miss_lod,
-                    m.miss_hier,
-                    m.miss_new,
+                    m.loader.stage2_bytes as f64 / MIB,
+                    m.loader.prefetch_bytes as f64 / MIB,
+                    m.loader.missing_reps,
+                    m.loader.miss_lod,
+                    m.loader.miss_hier,
+                    m.loader.miss_new,
                     m.substituted
                 ));
                 ui.label(format!(
                     "P_I queues: L_O {} reps, prefetch bins {} reps",
-                    m.missing_reps, m.prefetch_queue
+                    m.loader.missing_reps, m.loader.prefetch_queue
                 ));
             }
             live_plot("times").show(ui, |p| {
@@ -160,9 +160,9 @@ pub fn draw(
                     p.line(Line::new("runtime ms", series(hist, |s| s.m.frame_ms)));
                 });
             live_plot("bytes").show(ui, |p| {
-                    p.line(Line::new("resident MiB", series(hist, |s| s.m.max_resident_bytes as f64 / MIB)));
-                    p.line(Line::new("Stage II MiB", series(hist, |s| s.m.stage2_bytes as f64 / MIB)));
-                    p.line(Line::new("prefetch MiB", series(hist, |s| s.m.prefetch_bytes as f64 / MIB)));
+                    p.line(Line::new("resident MiB", series(hist, |s| s.m.loader.max_resident_bytes as f64 / MIB)));
+                    p.line(Line::new("Stage II MiB", series(hist, |s| s.m.loader.stage2_bytes as f64 / MIB)));
+                    p.line(Line::new("prefetch MiB", series(hist, |s| s.m.loader.prefetch_bytes as f64 / MIB)));
                 });
             ui.separator();
             egui::ComboBox::from_label("mode")

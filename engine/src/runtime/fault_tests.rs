@@ -52,7 +52,7 @@ fn walk_all(skel: &Arc<Skeleton>, src: impl Fn() -> Arc<dyn ByteSource>) -> Vec<
 }
 
 fn errors(frames: &[FrameMetrics]) -> u32 {
-    frames.iter().map(|f| f.read_errors).sum()
+    frames.iter().map(|f| f.loader.read_errors).sum()
 }
 
 #[test]
@@ -145,7 +145,7 @@ fn reads_far_slower_than_the_stall_deadline_hold_no_frame_past_one_read() {
     let path = poses();
     let frames = run_path(&mut walk, &path[..60], &mut NoneRenderer::new(0.0), 25.0).unwrap();
     check_frames(&frames, total / 5);
-    assert!(frames.iter().map(|f| f.late_reps).sum::<u32>() > 0);
+    assert!(frames.iter().map(|f| f.loader.late_reps).sum::<u32>() > 0);
     // A frame waits at most for a read already under way (one seek and a
     // rep), never for the reps that are late.
     let worst = frames[1..].iter().map(|f| f.wait_ms).fold(0.0, f64::max);

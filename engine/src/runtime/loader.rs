@@ -14,23 +14,37 @@
 mod ahead;
 mod classify;
 mod late;
+mod misses;
+mod pacing;
+#[cfg(test)]
+mod plan_tests;
 mod span;
 mod sweep;
 
 use std::sync::Arc;
-use std::time::Instant;
 
 use crossbeam_channel::{Receiver, Sender, TryRecvError};
 
 use super::resident::{Purpose, ResidentSet};
-use super::{Cmd, Mode, Reply, RuntimeError, RuntimeParams, StageStats};
+use super::{Cmd, Mode, Reply, RuntimeError, RuntimeParams};
 use crate::camera::View;
 use crate::format::check_rep_crc;
 use crate::front::FrontIndex;
 use crate::io::ByteSource;
+use crate::metrics::LoaderCounters;
 use crate::prefetch::Bins;
 use crate::skeleton::{RepId, Skeleton};
-use span::{FileOrder, IoCosts, Partial, ReadQueue};
+use ahead::Lookahead;
+use classify::Classifier;
+use late::LateReads;
+use misses::MissAccount;
+use pacing::Pacing;
+use span::{FileOrder, IoCosts, Partial, preempted};
+use sweep::Sweep;
+
+/// P_R is gone (its receiver dropped): P_I stops.
+#[derive(Debug)]
+struct RendererGone;
 
 /// Why a rep was not loaded.
 enum LoadError {
@@ -42,6 +56,30 @@ enum LoadError {
     Preempted,
 }
 
+/// What the read planners consult: the skeleton, its front index and the
+/// parameters.
+pub(super) struct Plan<'a> {
+    pub(super) skeleton: &'a Skeleton,
+    pub(super) index: &'a FrontIndex,
+    pub(super) params: &'a RuntimeParams,
+}
+
+impl<'a> Plan<'a> {
+    pub(super) fn of(
+        skeleton: &'a Skeleton,
+        index: &'a FrontIndex,
+        params: &'a RuntimeParams,
+    ) -> Self {
+        Self {
+            skeleton,
+            index,
+            params,
+        }
+    }
+}
+
+/// P_I: a command loop around the resident set and the read planners; it
+/// does the reads they ask for.
 pub(super) struct Loader {
     skeleton: Arc<Skeleton>,
     index: Arc<FrontIndex>,
@@ -55,58 +93,27 @@ pub(super) struct Loader {
     /// The resident reps, their bytes, pins and the eviction rule.
     res: ResidentSet,
     failed: Vec<bool>,
-    stats: StageStats,
-    bins: Bins,
-    classified: Vec<u32>,
-    class_gen: u32,
-    class_view: Option<View>,
-    theta0: f32,
-    theta1: f32,
-    /// F_R of the classified view (for the angle of each rep).
-    class_frustum: Option<crate::camera::Frustum>,
-    scratch: Vec<RepId>,
-    /// When the next fetch command is expected (paced runs).
-    next_fetch: Option<Instant>,
-    /// When the last fetch command came, and a moving average of the time
-    /// between fetch commands (frames slower than the period leave P_I
-    /// more time to prefetch).
-    last_fetch_at: Option<Instant>,
-    fetch_interval_s: f64,
+    stats: LoaderCounters,
+    /// The planners: the binned candidates (CLASSIFY), the fronts ahead,
+    /// the sweep through small reps, and the late reads of this frame.
+    classes: Classifier,
+    ahead: Lookahead,
+    sweep: Sweep,
+    late: LateReads,
+    /// The fetch commands' rhythm (when the next one is due).
+    pacing: Pacing,
     /// Learnt read costs (seek, transfer, break-even gap).
     costs: IoCosts,
     /// The reps in file order, for reads through gaps.
     order: FileOrder,
-    /// A rep is a prefetch candidate when its stamp is `class_gen`.
-    queued: Vec<u32>,
     /// Bytes of a gap being read through (discarded).
     gap_buf: Vec<u8>,
     /// A prefetch read preempted by a fetch command (its bytes reserved).
     partial: Option<Partial>,
-    /// Miss accounting: `front_stamp[n]` / `above_stamp[n]` equal `pin_gen - 1`
-    /// when node n was in the previous front / above a node that was.
-    front_stamp: Vec<u32>,
-    above_stamp: Vec<u32>,
-    /// The small reps of the F_I front not resident, in file order, and the
-    /// offset where the sweep through them goes on (`sweep.rs`).
-    sweep: Vec<RepId>,
-    sweep_at: u64,
-    sweep_turn: bool,
+    misses: MissAccount,
     /// P_I has no time for another prefetch read before the next fetch
     /// command (the candidates stay for the frames after it).
     wait_fetch: bool,
-    /// The reps of the fronts ahead, in service order.
-    ahead: ReadQueue,
-    scratch_ahead: Vec<RepId>,
-    /// Front reps past the stall deadline, read after the frame (`late`).
-    late: ReadQueue,
-    /// `pin_gen` of the frame a rep went late in.
-    late_stamp: Vec<u32>,
-    /// The camera's motion per frame, and its last position.
-    motion: glam::Vec3,
-    last_pos: Option<glam::Vec3>,
-    /// The camera's rotation per frame, and its last rotation.
-    spin: glam::Quat,
-    last_rot: Option<glam::Quat>,
 }
 
 impl Loader {
@@ -120,11 +127,24 @@ impl Loader {
         clock: Arc<dyn crate::clock::Clock>,
     ) -> Self {
         let n = skeleton.reps.len();
-        let skeleton_nodes = skeleton.nodes.len();
         let skeleton_reps_len: Vec<u32> = skeleton.reps.iter().map(|r| r.len).collect();
-        let order = FileOrder::new(&skeleton);
         Self {
-            bins: Bins::new(params.prefetch.bins, params.delta(), params.tolerance_px),
+            classes: Classifier::new(
+                n,
+                Bins::new(params.prefetch.bins, params.delta(), params.tolerance_px),
+            ),
+            ahead: Lookahead::default(),
+            sweep: Sweep::default(),
+            late: LateReads::new(n),
+            pacing: Pacing::default(),
+            misses: MissAccount::new(skeleton.nodes.len()),
+            order: FileOrder::new(&skeleton),
+            res: ResidentSet::new(
+                (0..n)
+                    .map(|r| footprint(&skeleton_reps_len, &pools, r))
+                    .collect(),
+            ),
+            failed: pools.iter().map(|&p| p == super::trees::UNUSABLE).collect(),
             skeleton,
             index,
             source,
@@ -133,43 +153,11 @@ impl Loader {
             replies,
             pending: None,
             clock,
-            res: ResidentSet::new(
-                (0..n)
-                    .map(|r| footprint(&skeleton_reps_len, &pools, r))
-                    .collect(),
-            ),
-            failed: pools.iter().map(|&p| p == super::trees::UNUSABLE).collect(),
-            stats: StageStats::default(),
-            classified: vec![0; n],
-            // Stamps of 0 never match: nothing is classified or queued yet.
-            class_gen: 1,
-            class_view: None,
-            theta0: 0.0,
-            theta1: 1.0,
-            class_frustum: None,
-            scratch: Vec::new(),
-            next_fetch: None,
-            last_fetch_at: None,
-            fetch_interval_s: 0.0,
+            stats: LoaderCounters::default(),
             costs: IoCosts::default(),
-            order,
-            queued: vec![0; n],
             gap_buf: Vec::new(),
             partial: None,
-            front_stamp: vec![0; skeleton_nodes],
-            above_stamp: vec![0; skeleton_nodes],
-            sweep: Vec::new(),
-            sweep_at: 0,
-            sweep_turn: false,
             wait_fetch: false,
-            ahead: ReadQueue::default(),
-            scratch_ahead: Vec::new(),
-            late: ReadQueue::default(),
-            late_stamp: vec![u32::MAX; n],
-            motion: glam::Vec3::ZERO,
-            last_pos: None,
-            spin: glam::Quat::IDENTITY,
-            last_rot: None,
         }
     }
 
@@ -185,14 +173,14 @@ impl Loader {
             let cmd = if let Some(c) = self.pending.take() {
                 c
             } else if !self.wait_fetch
-                && (self.late.pending()
+                && (self.late.queue.pending()
                     || (self.params.mode == Mode::Pre
-                        && (!self.bins.is_empty() || self.ahead.pending())))
+                        && (!self.classes.bins.is_empty() || self.ahead.queue.pending())))
             {
                 match self.cmds.try_recv() {
                     Ok(c) => c,
                     Err(TryRecvError::Empty) => {
-                        if !self.serve(|l| &mut l.late) && self.params.mode == Mode::Pre {
+                        if !self.serve(|l| &mut l.late.queue) && self.params.mode == Mode::Pre {
                             self.prefetch_step();
                         }
                         continue;
@@ -211,38 +199,48 @@ impl Loader {
                     turn_rad,
                     front,
                 } => {
-                    let now = self.clock.now();
-                    let period = f64::from(self.params.frame_period_s);
-                    if let Some(t) = self.last_fetch_at {
-                        // A stalled frame must not promise P_I a long window.
-                        let dt = (now - t).as_secs_f64().min(4.0 * period);
-                        self.fetch_interval_s += 0.25 * (dt - self.fetch_interval_s);
-                    }
-                    self.last_fetch_at = Some(now);
+                    self.pacing
+                        .on_fetch(self.clock.now(), f64::from(self.params.frame_period_s));
                     self.wait_fetch = false;
-                    self.motion = ahead::motion(self.last_pos, view.pose.position);
-                    self.last_pos = Some(view.pose.position);
-                    self.spin = ahead::spin(self.last_rot, view.pose.rotation);
-                    self.last_rot = Some(view.pose.rotation);
-                    let expect = period.max(self.fetch_interval_s);
-                    // 1 % early: frame pacing wakes P_R a little late, not
-                    // early (reads are timed per read, with their own margin).
-                    self.next_fetch = (period > 0.0)
-                        .then(|| crate::limits::after(now, expect * 0.99))
-                        .flatten();
+                    self.ahead.observe(&view.pose);
                     if self.fetch(&front).is_err() {
                         return;
                     }
                     if self.params.mode == Mode::Pre {
                         let t = self.clock.now();
-                        self.classify_front(&view, turn_rad);
-                        self.stats.classify_s += (self.clock.now() - t).as_secs_f64();
+                        self.classify(&view, turn_rad);
+                        self.stats.classify_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
                     }
                 }
                 Cmd::Unusable(r) => self.unusable(r),
                 Cmd::Shutdown => return,
             }
         }
+    }
+
+    /// Classifies the front of `view` for prefetching (when it moved), and
+    /// plans the sweep and the lookahead from F_I's front.
+    fn classify(&mut self, view: &View, turn_rad: f32) {
+        let plan = Plan::of(&self.skeleton, &self.index, &self.params);
+        let Some((front, margin)) = self
+            .classes
+            .classify_front(&plan, &self.res, view, turn_rad)
+        else {
+            return;
+        };
+        self.sweep.plan(&plan, &self.res, &self.failed, front);
+        let (pending, cmds) = (&mut self.pending, &self.cmds);
+        let mut stop = || pending.is_some() || preempted(pending, cmds);
+        self.ahead.plan(
+            &plan,
+            &mut self.res,
+            &self.failed,
+            &mut self.classes,
+            view,
+            margin,
+            self.clock.as_ref(),
+            &mut stop,
+        );
     }
 
     /// Footprint bytes of rep `r` while resident: its payload, and the
@@ -283,9 +281,9 @@ impl Loader {
                 // Unreadable reps are substituted at draw time, as in the other modes.
                 let _ = self.load(r, Purpose::Demand);
             }
-            self.stats = StageStats {
+            self.stats = LoaderCounters {
                 max_resident_bytes: self.res.bytes(),
-                ..StageStats::default()
+                ..LoaderCounters::default()
             };
             return Ok(());
         }
@@ -303,9 +301,9 @@ impl Loader {
         match self.load(r, Purpose::Demand) {
             Ok(_) => {
                 self.res.keep(r);
-                self.stats = StageStats {
+                self.stats = LoaderCounters {
                     max_resident_bytes: self.res.bytes(),
-                    ..StageStats::default()
+                    ..LoaderCounters::default()
                 };
                 Ok(())
             }
@@ -314,7 +312,7 @@ impl Loader {
     }
 
     /// Stage II for one front.
-    fn fetch(&mut self, front: &[RepId]) -> Result<(), ()> {
+    fn fetch(&mut self, front: &[RepId]) -> Result<(), RendererGone> {
         self.res.start_stage2(front);
         let mut missing = Vec::new();
         for &r in front {
@@ -332,7 +330,12 @@ impl Loader {
             }
         }
         self.stats.missing_reps = missing.len() as u32;
-        self.account_misses(front, &missing);
+        let m = self
+            .misses
+            .account(&self.skeleton, self.res.frame(), front, &missing);
+        self.stats.miss_lod += m.lod;
+        self.stats.miss_hier += m.hier;
+        self.stats.miss_new += m.new;
         // In file order: neighbouring reps are read without a seek.
         missing.sort_unstable_by_key(|&r| self.skeleton.reps[r as usize].offset);
         self.late.clear();
@@ -341,10 +344,9 @@ impl Loader {
                 // Past the stall deadline: ancestors now, the reps after.
                 for &x in &missing[i..] {
                     self.stats.late_reps += 1;
-                    self.late_stamp[x as usize] = self.res.frame();
+                    self.late.push(x, self.res.frame());
                     self.substitute(x)?;
                 }
-                self.late.reps.extend_from_slice(&missing[i..]);
                 break;
             }
             if let Some(end) = self.costs.last_end() {
@@ -361,7 +363,7 @@ impl Loader {
             }
         }
         self.stats.resident_bytes = self.res.bytes();
-        self.stats.prefetch_queue = self.bins.len() as u32;
+        self.stats.prefetch_queue = self.classes.bins.len() as u32;
         #[cfg(debug_assertions)]
         if let Err(e) = self.res.validate() {
             panic!("P_I's resident set is inconsistent: {e}");
@@ -371,53 +373,18 @@ impl Loader {
         self.send(Reply::Done(stats))
     }
 
-    /// Classifies this frame's misses against the previous front, then
-    /// stamps this front's nodes for the next frame.
-    fn account_misses(&mut self, front: &[RepId], missing: &[RepId]) {
-        let prev = self.res.frame() - 1;
-        for &r in missing {
-            let n = self.skeleton.reps[r as usize].node;
-            if self.front_stamp[n as usize] == prev {
-                self.stats.miss_lod += 1;
-                continue;
-            }
-            let mut up = self.skeleton.nodes[n as usize].parent;
-            let mut below_prev = false;
-            while up != crate::format::NONE {
-                if self.front_stamp[up as usize] == prev {
-                    below_prev = true;
-                    break;
-                }
-                up = self.skeleton.nodes[up as usize].parent;
-            }
-            if below_prev || self.above_stamp[n as usize] == prev {
-                self.stats.miss_hier += 1;
-            } else {
-                self.stats.miss_new += 1;
-            }
-        }
-        let cur = self.res.frame();
-        for &r in front {
-            let n = self.skeleton.reps[r as usize].node;
-            self.front_stamp[n as usize] = cur;
-            let mut up = self.skeleton.nodes[n as usize].parent;
-            while up != crate::format::NONE && self.above_stamp[up as usize] != cur {
-                self.above_stamp[up as usize] = cur;
-                up = self.skeleton.nodes[up as usize].parent;
-            }
-        }
-    }
-
-    fn send(&mut self, r: Reply) -> Result<(), ()> {
+    fn send(&mut self, r: Reply) -> Result<(), RendererGone> {
         if self.res.has_evicted() {
             let ev = self.res.take_evicted();
-            self.replies.send(Reply::Evicted(ev)).map_err(|_| ())?;
+            self.replies
+                .send(Reply::Evicted(ev))
+                .map_err(|_| RendererGone)?;
         }
-        self.replies.send(r).map_err(|_| ())
+        self.replies.send(r).map_err(|_| RendererGone)
     }
 
     /// Draws the nearest resident ancestor in place of `r`.
-    fn substitute(&mut self, r: RepId) -> Result<(), ()> {
+    fn substitute(&mut self, r: RepId) -> Result<(), RendererGone> {
         let mut a = self.skeleton.par(r);
         while let Some(x) = a {
             if let Some(d) = self.res.payload(x) {
@@ -536,23 +503,22 @@ impl Loader {
     /// when their bins come up: a neighbour is read only when its own
     /// priority says it is needed soon (P_I has few seeks per frame).
     fn prefetch_step(&mut self) {
-        if self.partial.is_none() && self.serve(|l| &mut l.ahead) {
+        if self.partial.is_none() && self.serve(|l| &mut l.ahead.queue) {
             return;
         }
-        self.sweep_turn = !self.sweep_turn;
-        if self.sweep_turn && self.partial.is_none() && self.sweep_step() {
+        if self.sweep.take_turn() && self.partial.is_none() && self.sweep_step() {
             return;
         }
         if let Some(r) = self.partial.as_ref().map(|p| p.rep) {
             // Still a candidate: binned by this classification or the one
             // before (a child is binned again only when its parent comes up).
-            if self.class_gen.wrapping_sub(self.queued[r as usize]) <= 1 {
+            if self.classes.is_recent(r) {
                 let _ = self.prefetch_read(r);
                 return;
             }
             self.cancel_partial();
         }
-        let Some((o, _)) = self.bins.peek() else {
+        let Some((o, _)) = self.classes.bins.peek() else {
             return;
         };
         if !self.res.contains(o) && !self.first_block_in_time(o) {
@@ -562,7 +528,7 @@ impl Loader {
             self.wait_fetch = true;
             return;
         }
-        let Some((o, depth)) = self.bins.pop() else {
+        let Some((o, depth)) = self.classes.bins.pop() else {
             return;
         };
         if self.res.contains(o) {
@@ -574,7 +540,8 @@ impl Loader {
                 Err(LoadError::Preempted) => return,
             }
         }
-        self.classify_neighbours(o, depth);
+        let plan = Plan::of(&self.skeleton, &self.index, &self.params);
+        self.classes.classify_neighbours(&plan, o, depth);
     }
 }
 

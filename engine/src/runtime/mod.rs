@@ -35,7 +35,7 @@ use crossbeam_channel::{Receiver, Sender, bounded};
 use crate::camera::{Pose, View};
 use crate::front::FrontIndex;
 use crate::io::ByteSource;
-use crate::metrics::FrameMetrics;
+use crate::metrics::{FrameMetrics, LoaderCounters};
 use crate::render::Renderer;
 use crate::skeleton::{RepId, Skeleton};
 
@@ -290,41 +290,7 @@ enum Reply {
     /// P_I evicted these reps (sent before any later `Draw`).
     Evicted(Vec<RepId>),
     /// Stage II is over.
-    Done(StageStats),
-}
-
-/// P_I's counters, reported at the end of each Stage II.
-#[derive(Clone, Copy, Debug, Default)]
-struct StageStats {
-    missing_reps: u32,
-    stage2_bytes: u64,
-    prefetch_bytes: u64,
-    resident_bytes: u64,
-    max_resident_bytes: u64,
-    evictions: u32,
-    read_errors: u32,
-    miss_lod: u32,
-    miss_hier: u32,
-    miss_new: u32,
-    stage2_io_s: f64,
-    prefetch_io_s: f64,
-    /// Bytes of gaps read through (not kept).
-    skipped_bytes: u64,
-    /// Preempted prefetch reads continued.
-    resumed: u32,
-    /// Bytes of prefetched reps evicted before P_R drew them.
-    wasted_bytes: u64,
-    /// Reads that did not continue where the previous one ended.
-    stage2_seeks: u32,
-    prefetch_seeks: u32,
-    /// Prefetch candidates waiting in the bins at the end of Stage II.
-    prefetch_queue: u32,
-    /// Front reps drawn as an ancestor because the stall deadline passed,
-    /// and bytes read after their frame's deadline (on demand, late).
-    late_reps: u32,
-    late_bytes: u64,
-    /// P_I's time classifying fronts for prefetching (bins and lookahead).
-    classify_s: f64,
+    Done(LoaderCounters),
 }
 
 /// P_R: drives frames against a running P_I.
@@ -584,27 +550,7 @@ impl Walkthrough {
         m.vdt_bytes = self.trees.bytes();
         m.gpu_bytes = renderer.gpu_bytes();
         m.wait_ms = wait;
-        m.missing_reps = stats.missing_reps;
-        m.stage2_bytes = stats.stage2_bytes;
-        m.prefetch_bytes = stats.prefetch_bytes;
-        m.resident_bytes = stats.resident_bytes;
-        m.max_resident_bytes = stats.max_resident_bytes;
-        m.evictions = stats.evictions;
-        m.read_errors = stats.read_errors;
-        m.miss_lod = stats.miss_lod;
-        m.miss_hier = stats.miss_hier;
-        m.miss_new = stats.miss_new;
-        m.stage2_io_ms = stats.stage2_io_s * 1e3;
-        m.prefetch_io_ms = stats.prefetch_io_s * 1e3;
-        m.skipped_bytes = stats.skipped_bytes;
-        m.resumed = stats.resumed;
-        m.wasted_bytes = stats.wasted_bytes;
-        m.stage2_seeks = stats.stage2_seeks;
-        m.prefetch_seeks = stats.prefetch_seeks;
-        m.prefetch_queue = stats.prefetch_queue;
-        m.late_reps = stats.late_reps;
-        m.late_bytes = stats.late_bytes;
-        m.classify_ms = stats.classify_s * 1e3;
+        m.loader = stats;
         m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok(m)
     }

@@ -53,12 +53,12 @@ pub(super) fn pose(x: f32, y: f32, z: f32, yaw: f32) -> Pose {
 pub(super) fn check_frames(frames: &[FrameMetrics], budget: u64) {
     for f in frames {
         assert!(
-            f.max_resident_bytes <= budget,
+            f.loader.max_resident_bytes <= budget,
             "frame {}: {} > {budget}",
             f.frame,
-            f.max_resident_bytes
+            f.loader.max_resident_bytes
         );
-        assert!(f.resident_bytes <= budget);
+        assert!(f.loader.resident_bytes <= budget);
         assert_eq!(
             f.drawn_reps + f.substituted,
             f.front_reps,
@@ -166,7 +166,7 @@ fn thousands_of_frames_under_a_tight_budget_do_not_deadlock() {
             frames.iter().map(|f| f.substituted).sum::<u32>() > 0,
             "{mode:?}: the budget should bind"
         );
-        assert!(frames.iter().map(|f| f.evictions).sum::<u32>() > 0);
+        assert!(frames.iter().map(|f| f.loader.evictions).sum::<u32>() > 0);
     }
 }
 
@@ -180,9 +180,9 @@ fn incore_holds_everything_and_fetches_nothing_per_frame() {
         .collect();
     let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 0.0).unwrap();
     for f in &frames {
-        assert_eq!(f.stage2_bytes, 0);
-        assert_eq!(f.missing_reps, 0);
-        assert_eq!(f.resident_bytes, total);
+        assert_eq!(f.loader.stage2_bytes, 0);
+        assert_eq!(f.loader.missing_reps, 0);
+        assert_eq!(f.loader.resident_bytes, total);
         assert_eq!(f.drawn_reps, f.front_reps);
     }
 }
@@ -201,7 +201,7 @@ fn prefetching_cuts_demand_fetches_on_a_smooth_path() {
         // A paced walk leaves P_I time to prefetch between frames.
         let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 500.0).unwrap();
         check_frames(&frames, total / 3);
-        bytes.push(frames.iter().map(|f| f.stage2_bytes).sum::<u64>());
+        bytes.push(frames.iter().map(|f| f.loader.stage2_bytes).sum::<u64>());
     }
     assert!(
         bytes[1] * 2 < bytes[0],
@@ -229,7 +229,7 @@ fn a_failing_rep_is_logged_substituted_and_the_run_goes_on() {
             0.0,
         );
         let f = walk.frame(&p, &mut NoneRenderer::new(0.0)).unwrap();
-        errors += f.read_errors;
+        errors += f.loader.read_errors;
         substituted += f.substituted;
         assert_eq!(f.drawn_reps + f.substituted, f.front_reps);
     }
@@ -370,12 +370,20 @@ fn reading_through_short_gaps_saves_seeks_and_changes_nothing_drawn() {
     let (off, on) = (&runs[0], &runs[1]);
     // On demand only, the same reps are fetched and drawn either way.
     for (a, b) in off.2.iter().zip(&on.2) {
-        assert_eq!(a.missing_reps, b.missing_reps, "frame {}", a.frame);
-        assert_eq!(a.stage2_bytes, b.stage2_bytes, "frame {}", a.frame);
+        assert_eq!(
+            a.loader.missing_reps, b.loader.missing_reps,
+            "frame {}",
+            a.frame
+        );
+        assert_eq!(
+            a.loader.stage2_bytes, b.loader.stage2_bytes,
+            "frame {}",
+            a.frame
+        );
         assert_eq!(a.drawn_reps, b.drawn_reps, "frame {}", a.frame);
     }
-    assert_eq!(total(&off.2, |f| f.skipped_bytes), 0);
-    assert!(total(&on.2, |f| f.skipped_bytes) > 0);
+    assert_eq!(total(&off.2, |f| f.loader.skipped_bytes), 0);
+    assert!(total(&on.2, |f| f.loader.skipped_bytes) > 0);
     eprintln!("nopre seeks: {} with, {} without", on.3, off.3);
     assert!(
         on.3 * 10 < off.3 * 8,
@@ -385,8 +393,8 @@ fn reading_through_short_gaps_saves_seeks_and_changes_nothing_drawn() {
     );
     // With prefetching (timing-dependent, so only the invariants above and
     // that gaps were read through).
-    assert!(total(&runs[3].2, |f| f.skipped_bytes) > 0);
-    assert_eq!(total(&runs[2].2, |f| f.skipped_bytes), 0);
+    assert!(total(&runs[3].2, |f| f.loader.skipped_bytes) > 0);
+    assert_eq!(total(&runs[2].2, |f| f.loader.skipped_bytes), 0);
 }
 
 #[test]
@@ -421,11 +429,14 @@ fn an_all_around_f_i_and_the_sweep_leave_nothing_missing_after_a_sudden_turn() {
         let all_around = run(180.0, sweep);
         let last = all_around.last().unwrap();
         assert!(last.front_reps > 0);
-        assert_eq!(last.missing_reps, 0, "sweep {sweep}: behind was prefetched");
+        assert_eq!(
+            last.loader.missing_reps, 0,
+            "sweep {sweep}: behind was prefetched"
+        );
     }
     // The control: F_I 30° wider than F_R does not reach behind the camera.
     let narrow = run(30.0, 0);
-    assert!(narrow.last().unwrap().missing_reps > 0);
+    assert!(narrow.last().unwrap().loader.missing_reps > 0);
 }
 
 /// Walks `poses` through `wide(64)` with F_I as F_R and no PAR/CHD, so
@@ -464,7 +475,7 @@ fn the_lookahead_prefetches_the_lod_switches_of_an_approach() {
     let run = |k| -> u32 {
         lookahead_walk(&poses, k)[3..]
             .iter()
-            .map(|f| f.miss_lod)
+            .map(|f| f.loader.miss_lod)
             .sum()
     };
     let without = run(0);
@@ -485,9 +496,9 @@ fn the_lookahead_follows_a_pan_and_prefetches_what_turns_into_view() {
     let run = |k| -> u32 {
         let frames = lookahead_walk(&poses, k);
         // P_I's classification is timed.
-        assert!(frames.iter().any(|f| f.classify_ms > 0.0));
+        assert!(frames.iter().any(|f| f.loader.classify_ms > 0.0));
         // The rotation is known from the second fetch command on.
-        frames[3..].iter().map(|f| f.miss_new).sum()
+        frames[3..].iter().map(|f| f.loader.miss_new).sum()
     };
     let without = run(0);
     assert!(without > 10, "{without} reps turned into view unprefetched");
@@ -526,9 +537,9 @@ fn f_i_goes_all_around_when_the_all_around_front_fits_even_after_a_slow_first_fr
     );
     let last = fits.last().unwrap();
     assert!(last.front_reps > 0);
-    assert_eq!(last.missing_reps, 0, "behind was prefetched at rest");
+    assert_eq!(last.loader.missing_reps, 0, "behind was prefetched at rest");
     // Never all around: the default margins do not reach behind.
-    assert!(run(total, 0.0).last().unwrap().missing_reps > 0);
+    assert!(run(total, 0.0).last().unwrap().loader.missing_reps > 0);
 }
 
 #[test]
@@ -561,23 +572,32 @@ fn a_stall_deadline_draws_ancestors_for_what_is_late_and_loads_it_after_the_fram
     for mode in [Mode::NoPre, Mode::Pre] {
         let late = run(0.002, mode);
         let turn = &late[5];
-        assert!(turn.missing_reps > 1, "{mode:?}: the turn misses reps");
-        assert!(turn.late_reps > 0 && turn.late_reps <= turn.missing_reps);
         assert!(
-            turn.substituted >= turn.late_reps,
+            turn.loader.missing_reps > 1,
+            "{mode:?}: the turn misses reps"
+        );
+        assert!(turn.loader.late_reps > 0 && turn.loader.late_reps <= turn.loader.missing_reps);
+        assert!(
+            turn.substituted >= turn.loader.late_reps,
             "late reps are drawn as ancestors"
         );
-        let read_late: u64 = late.iter().map(|f| f.late_bytes).sum();
+        let read_late: u64 = late.iter().map(|f| f.loader.late_bytes).sum();
         assert!(
             read_late > 0,
             "{mode:?}: late reps are read after their frame"
         );
         let last = late.last().unwrap();
-        assert_eq!(last.missing_reps, 0, "{mode:?}: at rest, everything came");
+        assert_eq!(
+            last.loader.missing_reps, 0,
+            "{mode:?}: at rest, everything came"
+        );
         assert_eq!(last.substituted, 0);
         // Without a deadline P_R waits: nothing is late, nothing substituted.
         let wait = run(0.0, mode);
-        assert!(wait.iter().all(|f| f.late_reps == 0 && f.late_bytes == 0));
+        assert!(
+            wait.iter()
+                .all(|f| f.loader.late_reps == 0 && f.loader.late_bytes == 0)
+        );
         assert_eq!(wait[5].substituted, 0);
     }
     let bad = RuntimeParams {

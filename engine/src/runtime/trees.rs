@@ -57,15 +57,27 @@ pub(super) fn plan_pools(skeleton: &Skeleton, source: &dyn ByteSource, wanted: u
         .collect()
 }
 
-fn plan_one(source: &dyn ByteSource, rec: &RepRecord, wanted: u64) -> Result<u64, String> {
-    let read = |len: u64| -> Result<Vec<u8>, String> {
+/// Why a view-dependence tree cannot be used (its finest static LOD is
+/// drawn instead).
+#[derive(Debug, thiserror::Error)]
+enum TreeError {
+    #[error("header and root records disagree with the rep record")]
+    Header,
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    #[error(transparent)]
+    Vdt(#[from] crate::vdt::file::VdtError),
+    #[error(transparent)]
+    Format(#[from] crate::format::FormatError),
+}
+
+fn plan_one(source: &dyn ByteSource, rec: &RepRecord, wanted: u64) -> Result<u64, TreeError> {
+    let read = |len: u64| -> Result<Vec<u8>, TreeError> {
         if len > u64::from(rec.len) {
-            return Err("header disagrees with its record".into());
+            return Err(TreeError::Header);
         }
         let mut b = vec![0u8; len as usize];
-        source
-            .read_at(rec.offset, &mut b)
-            .map_err(|e| e.to_string())?;
+        source.read_at(rec.offset, &mut b)?;
         Ok(b)
     };
     let head = read(112)?;
@@ -73,7 +85,7 @@ fn plan_one(source: &dyn ByteSource, rec: &RepRecord, wanted: u64) -> Result<u64
     let prefix = read(112 + roots * 32)?;
     let (h, root_bytes) = VdtHeader::with_root_bytes(&prefix)
         .filter(|(h, _)| h.root_count > 0 && h.data_offset <= u64::from(rec.len))
-        .ok_or("header and root records disagree with the record")?;
+        .ok_or(TreeError::Header)?;
     Ok(h.data_offset + h.holder_need(root_bytes).max(wanted.min(h.data_len)))
 }
 
@@ -152,7 +164,7 @@ impl Trees {
         self.live.remove(&r);
     }
 
-    fn open(&self, r: RepId, payload: &Arc<[u8]>) -> Result<Tree, String> {
+    fn open(&self, r: RepId, payload: &Arc<[u8]>) -> Result<Tree, TreeError> {
         let rec = &self.skeleton.reps[r as usize];
         // In core the payload is the whole file: the window never reads
         // through to the scene source.
@@ -161,20 +173,18 @@ impl Trees {
             rec.offset,
             rec.extent(),
             payload.clone(),
-        )
-        .map_err(|e| e.to_string())?;
-        let file = VdtFile::open(Arc::new(src)).map_err(|e| e.to_string())?;
-        crate::format::check_vdt_record(r, rec, &file).map_err(|e| e.to_string())?;
+        )?;
+        let file = VdtFile::open(Arc::new(src))?;
+        crate::format::check_vdt_record(r, rec, &file)?;
         let flat = file.source.len() - file.header.virt_offset;
         let mut store = if self.incore {
-            let tree = file.load_tree().map_err(|e| e.to_string())?;
+            let tree = file.load_tree()?;
             Store::Core(Box::new(tree), flat)
         } else {
-            let s = ExtStore::start(Arc::new(file), self.pools[r as usize])
-                .map_err(|e| e.to_string())?;
+            let s = ExtStore::start(Arc::new(file), self.pools[r as usize])?;
             Store::Ext(Box::new(s))
         };
-        let refiner = Refiner::new(store.nodes()).map_err(|e| e.to_string())?;
+        let refiner = Refiner::new(store.nodes())?;
         Ok(Tree {
             store,
             refiner,
@@ -213,7 +223,7 @@ impl Trees {
         tolerance_px: f32,
         renderer: &mut dyn Renderer,
         out: &mut TreeFrame,
-    ) -> Result<(), String> {
+    ) -> Result<(), TreeError> {
         if !self.live.contains_key(&r) {
             let t = self.open(r, payload)?;
             self.live.insert(r, t);
@@ -222,15 +232,12 @@ impl Trees {
         let color = self.skeleton.nodes[rec.node as usize].color.to_le_bytes();
         let tree = self.live.get_mut(&r).expect("inserted above");
         if let Store::Ext(s) = &mut tree.store {
-            s.poll().map_err(|e| e.to_string())?;
+            s.poll()?;
             out.metas_loaded += (s.stats.loads - tree.loads) as u32;
             tree.loads = s.stats.loads;
         }
         let c = Criterion::new(*view, tolerance_px);
-        let st = tree
-            .refiner
-            .pass(tree.store.nodes(), &c)
-            .map_err(|e| e.to_string())?;
+        let st = tree.refiner.pass(tree.store.nodes(), &c)?;
         out.trees += 1;
         out.adapt += st.adapt();
         out.misses += st.misses;

@@ -242,7 +242,7 @@ fn equal_fronts_give_identical_images_and_gpu_memory_follows_the_budget() {
                 "frame {i}: GPU {} > {budget}",
                 f.gpu_bytes
             );
-            assert!(f.max_resident_bytes <= budget);
+            assert!(f.loader.max_resident_bytes <= budget);
             let (Some(a), Some(b)) = (&imgs[i], &ref_imgs[i]) else {
                 continue;
             };

@@ -98,9 +98,9 @@ fn walk(bytes: &[u8], mode: Mode, budget: u64, poses: &[Pose], hold: usize) -> V
         let m = w.frame(p, &mut r).unwrap();
         if mode != Mode::Incore {
             assert!(
-                m.max_resident_bytes <= budget && m.vdt_bytes <= budget,
+                m.loader.max_resident_bytes <= budget && m.vdt_bytes <= budget,
                 "frame {i}: resident {} / trees {} over the budget {budget}",
-                m.max_resident_bytes,
+                m.loader.max_resident_bytes,
                 m.vdt_bytes
             );
         }
@@ -171,7 +171,7 @@ fn trees_refine_under_one_footprint_in_every_mode() {
         let f = walk(bytes, mode, budget, &poses, 20);
         let loaded: u32 = f.iter().map(|m| m.metas_loaded).sum();
         assert!(loaded > 50, "{mode:?}: {loaded} meta-nodes read");
-        assert!(f.iter().all(|m| m.read_errors == 0));
+        assert!(f.iter().all(|m| m.loader.read_errors == 0));
         assert!(f.iter().any(|m| m.vdt_bytes > 0));
         // Held still, the paged tree reaches the in-core cut.
         let (a, b) = (f.last().unwrap(), incore.last().unwrap());
@@ -212,7 +212,7 @@ fn bad_tree_data_degrades_to_coarser_levels() {
     let early = flip(rec.offset + u64::from(rec.len) - 8);
     let f = walk(&early, Mode::Pre, rec.extent(), &poses, 0);
     assert!(f.iter().all(|m| m.vdt_trees == 0));
-    assert!(f.iter().map(|m| m.read_errors).sum::<u32>() >= 1);
+    assert!(f.iter().map(|m| m.loader.read_errors).sum::<u32>() >= 1);
     assert!(f.iter().map(|m| m.substituted).sum::<u32>() > 10);
     // The embedded header: the tree is unusable from the start.
     let head = flip(rec.offset + 4);

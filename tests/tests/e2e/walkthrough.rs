@@ -66,10 +66,14 @@ fn three_modes_on_one_path_keep_the_budget_and_draw_the_same_fronts() {
                 f.frame
             );
             if mode == Mode::Incore {
-                assert_eq!(f.stage2_bytes, 0);
+                assert_eq!(f.loader.stage2_bytes, 0);
                 assert_eq!(f.substituted, 0);
             } else {
-                assert!(f.max_resident_bytes <= budget, "{mode:?} frame {}", f.frame);
+                assert!(
+                    f.loader.max_resident_bytes <= budget,
+                    "{mode:?} frame {}",
+                    f.frame
+                );
             }
         }
         assert!(
@@ -135,13 +139,13 @@ fn slow_disk_reads_through_gaps_and_resumes_preempted_prefetches_within_the_budg
             "frame {}",
             f.frame
         );
-        assert!(f.max_resident_bytes <= budget, "frame {}", f.frame);
+        assert!(f.loader.max_resident_bytes <= budget, "frame {}", f.frame);
     }
     let sum = |k: fn(&engine::metrics::FrameMetrics) -> u64| frames.iter().map(k).sum::<u64>();
-    assert!(sum(|f| f.skipped_bytes) > 0, "gaps read through");
+    assert!(sum(|f| f.loader.skipped_bytes) > 0, "gaps read through");
     assert!(
-        sum(|f| u64::from(f.resumed)) > 0,
+        sum(|f| u64::from(f.loader.resumed)) > 0,
         "preempted prefetches resumed"
     );
-    assert!(sum(|f| f.prefetch_bytes) > 0);
+    assert!(sum(|f| f.loader.prefetch_bytes) > 0);
 }

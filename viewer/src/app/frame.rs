@@ -12,8 +12,8 @@ use super::App;
 impl App {
     /// Tracks completeness, the first complete frame and `--pick`.
     pub(super) fn after_frame(&mut self, m: &engine::metrics::FrameMetrics, pose: &Pose) {
-        let loading = m.late_reps + m.vdt_misses;
-        let complete = m.substituted == 0 && loading == 0 && m.read_errors == 0;
+        let loading = m.loader.late_reps + m.vdt_misses;
+        let complete = m.substituted == 0 && loading == 0 && m.loader.read_errors == 0;
         if self.complete != Some((complete, loading)) {
             self.ui_dirty = true;
         }
@@ -64,7 +64,7 @@ impl App {
                 println!("picked at {x},{y}: nothing");
                 self.selection = None;
             }
-            Err(e) => self.report(format!("pick: {e}")),
+            Err(e) => self.report(format!("pick: {e:#}")),
         }
         self.ui_dirty = true;
     }

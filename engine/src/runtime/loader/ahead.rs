@@ -27,18 +27,72 @@
 
 use glam::{Quat, Vec3};
 
-use super::Loader;
-use crate::camera::View;
+use super::Plan;
+use super::classify::Classifier;
+use super::span::ReadQueue;
+use crate::camera::{Pose, View};
+use crate::clock::Clock;
+use crate::runtime::resident::ResidentSet;
 use crate::skeleton::RepId;
 
 /// How long P_I plans the lookahead before a waiting fetch command stops it.
 const PLAN_BUDGET_S: f64 = 1e-3;
 
-impl Loader {
-    /// Plans the lookahead reads for `view` (F_I widened by `margin` rad).
-    pub(super) fn plan_ahead(&mut self, view: &View, margin: f32) {
-        self.ahead.clear();
-        let k = self.params.prefetch.lookahead_frames;
+/// The camera's motion, and the reps of the fronts it reaches next.
+#[derive(Debug)]
+pub(super) struct Lookahead {
+    /// The camera's motion per frame, and its last position.
+    motion: Vec3,
+    last_pos: Option<Vec3>,
+    /// The camera's rotation per frame, and its last rotation.
+    spin: Quat,
+    last_rot: Option<Quat>,
+    /// The reps of the fronts ahead, in service order.
+    pub(super) queue: ReadQueue,
+    front: Vec<RepId>,
+}
+
+impl Default for Lookahead {
+    fn default() -> Self {
+        Self {
+            motion: Vec3::ZERO,
+            last_pos: None,
+            spin: Quat::IDENTITY,
+            last_rot: None,
+            queue: ReadQueue::default(),
+            front: Vec::new(),
+        }
+    }
+}
+
+impl Lookahead {
+    /// A fetch command's pose: the motion and rotation per frame since the
+    /// last one.
+    pub(super) fn observe(&mut self, pose: &Pose) {
+        self.motion = motion(self.last_pos, pose.position);
+        self.last_pos = Some(pose.position);
+        self.spin = spin(self.last_rot, pose.rotation);
+        self.last_rot = Some(pose.rotation);
+    }
+
+    /// Plans the lookahead reads for `view` (F_I widened by `margin` rad):
+    /// the reps not resident become candidates of `classes`, the resident
+    /// ones are touched. Once the plan has taken
+    /// [`PLAN_BUDGET_S`], `stop` says whether a fetch command waits.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn plan(
+        &mut self,
+        plan: &Plan,
+        res: &mut ResidentSet,
+        failed: &[bool],
+        classes: &mut Classifier,
+        view: &View,
+        margin: f32,
+        clock: &dyn Clock,
+        stop: &mut dyn FnMut() -> bool,
+    ) {
+        self.queue.clear();
+        let k = plan.params.prefetch.lookahead_frames;
         let v = if self.motion.is_finite() {
             self.motion
         } else {
@@ -47,11 +101,11 @@ impl Loader {
         if k == 0 || (v.length_squared() == 0.0 && self.spin.to_axis_angle().1 == 0.0) {
             return;
         }
-        let Some(own) = self.class_frustum else {
+        let Some(own) = classes.own_frustum() else {
             return;
         };
-        let started = self.clock.now();
-        let mut front = std::mem::take(&mut self.scratch_ahead);
+        let started = clock.now();
+        let mut front = std::mem::take(&mut self.front);
         let mut keyed: Vec<(u32, u32, RepId)> = Vec::new();
         // First the view fronts (F_R) of each frame ahead, nearest first:
         // what the motion will draw next; then F_I's fronts at two horizons.
@@ -64,8 +118,8 @@ impl Loader {
             // A waiting fetch command comes first once the plan has taken
             // a millisecond: the fronts computed so far do.
             if stage > 0
-                && (self.clock.now() - started).as_secs_f64() > PLAN_BUDGET_S
-                && (self.pending.is_some() || self.preempted())
+                && clock.now().saturating_duration_since(started).as_secs_f64() > PLAN_BUDGET_S
+                && stop()
             {
                 break;
             }
@@ -73,18 +127,18 @@ impl Loader {
             ahead.pose.position += v * frames as f32;
             ahead.pose.rotation = spin_ahead(self.spin, frames) * view.pose.rotation;
             let f = ahead.frustum(m);
-            self.index
-                .compute(&ahead, &f, self.params.tolerance_px, &mut front);
+            plan.index
+                .compute(&ahead, &f, plan.params.tolerance_px, &mut front);
             for &r in &front {
-                if self.failed[r as usize] {
+                if failed[r as usize] {
                     continue;
                 }
-                if self.res.contains(r) {
-                    self.res.access(r);
+                if res.contains(r) {
+                    res.access(r);
                     continue;
                 }
-                self.queued[r as usize] = self.class_gen;
-                let (mn, mx) = self.index.node_box(self.skeleton.reps[r as usize].node);
+                classes.queue(r);
+                let (mn, mx) = plan.index.node_box(plan.skeleton.reps[r as usize].node);
                 let angle = own.angle_to_box(mn, mx);
                 keyed.push((stage as u32, angle.to_bits(), r));
             }
@@ -94,8 +148,8 @@ impl Loader {
         keyed.sort_unstable_by_key(|&(h, a, r)| (r, h, a));
         keyed.dedup_by_key(|x| x.2);
         keyed.sort_unstable();
-        self.ahead.reps.extend(keyed.into_iter().map(|(_, _, r)| r));
-        self.scratch_ahead = front;
+        self.queue.reps.extend(keyed.into_iter().map(|(_, _, r)| r));
+        self.front = front;
     }
 }
 
@@ -111,13 +165,13 @@ fn spin_ahead(spin: Quat, frames: u32) -> Quat {
 
 /// The camera's rotation per frame: from the previous rotation to `now`
 /// (world frame: `spin * prev = now`).
-pub(super) fn spin(prev: Option<Quat>, now: Quat) -> Quat {
+fn spin(prev: Option<Quat>, now: Quat) -> Quat {
     let q = prev.map_or(Quat::IDENTITY, |p| (now * p.inverse()).normalize());
     // The short way round.
     if q.w < 0.0 { -q } else { q }
 }
 
 /// The camera's motion per frame: from the previous position to `now`.
-pub(super) fn motion(prev: Option<Vec3>, now: Vec3) -> Vec3 {
+fn motion(prev: Option<Vec3>, now: Vec3) -> Vec3 {
     prev.map_or(Vec3::ZERO, |p| now - p)
 }

@@ -2,35 +2,78 @@
 //! F_I — all around the eye when that front fits the footprint — binned
 //! by `Priority(O)`, and the PAR/CHD of each rep PREFETCH serves.
 
-use super::Loader;
-use crate::camera::View;
-use crate::prefetch::{ang_pr, priority};
+use super::Plan;
+use crate::camera::{Frustum, View};
+use crate::prefetch::{Bins, ang_pr, priority};
+use crate::runtime::resident::ResidentSet;
 use crate::skeleton::RepId;
 
-impl Loader {
-    /// Flushes the bins and classifies the front under the enlarged frustum
-    /// F_I, when the viewpoint changed.
-    pub(super) fn classify_front(&mut self, view: &View, turn_rad: f32) {
-        if self.class_view.as_ref() == Some(view) {
-            return;
+/// The binned prefetch candidates of the last classified view.
+#[derive(Debug)]
+pub(super) struct Classifier {
+    pub(super) bins: Bins,
+    /// A rep is classified (binned at most once) in this classification
+    /// when its stamp is `generation`.
+    classified: Vec<u32>,
+    /// A rep is a prefetch candidate when its stamp is `generation`.
+    queued: Vec<u32>,
+    generation: u32,
+    view: Option<View>,
+    /// F_R of the classified view (for the angle of each rep), and the
+    /// angles θ0 (its half angle) and θ1 (F_I's margin) of AngPr.
+    own: Option<Frustum>,
+    theta0: f32,
+    theta1: f32,
+    /// The last F_I front.
+    front: Vec<RepId>,
+}
+
+impl Classifier {
+    pub(super) fn new(reps: usize, bins: Bins) -> Self {
+        Self {
+            bins,
+            classified: vec![0; reps],
+            queued: vec![0; reps],
+            // Stamps of 0 never match: nothing is classified or queued yet.
+            generation: 1,
+            view: None,
+            own: None,
+            theta0: 0.0,
+            theta1: 1.0,
+            front: Vec::new(),
         }
-        self.class_view = Some(*view);
+    }
+
+    /// Flushes the bins and classifies the front under the enlarged frustum
+    /// F_I, when the viewpoint changed. Returns F_I's front and its margin
+    /// (rad) when it did.
+    pub(super) fn classify_front(
+        &mut self,
+        plan: &Plan,
+        res: &ResidentSet,
+        view: &View,
+        turn_rad: f32,
+    ) -> Option<(&[RepId], f32)> {
+        if self.view.as_ref() == Some(view) {
+            return None;
+        }
+        self.view = Some(*view);
         self.bins.clear();
-        self.class_gen += 1;
-        let p = &self.params.prefetch;
+        self.generation += 1;
+        let p = &plan.params.prefetch;
         let mut margin = (p.margin_deg + p.margin_per_deg_turn * turn_rad.to_degrees())
             .min(p.max_margin_deg)
             .to_radians();
-        let mut front = std::mem::take(&mut self.scratch);
+        let mut front = std::mem::take(&mut self.front);
         // All around when the all-around front fits the footprint; if it
         // does not, F_I's front is its part in F_I.
-        let fit = f64::from(p.all_around_fit) * self.params.budget_bytes as f64;
+        let fit = f64::from(p.all_around_fit) * plan.params.budget_bytes as f64;
         let have_all_around = fit > 0.0 && margin < std::f32::consts::FRAC_PI_2;
         if have_all_around {
             let f = view.frustum(std::f32::consts::PI);
-            self.index
-                .compute(view, &f, self.params.tolerance_px, &mut front);
-            let bytes: u64 = front.iter().map(|&r| self.cost(r)).sum();
+            plan.index
+                .compute(view, &f, plan.params.tolerance_px, &mut front);
+            let bytes: u64 = front.iter().map(|&r| res.cost(r)).sum();
             if bytes as f64 <= fit {
                 margin = std::f32::consts::PI;
             }
@@ -38,20 +81,19 @@ impl Loader {
         let enlarged = view.frustum(margin);
         let own = view.frustum(0.0);
         self.theta0 = own.half_angle;
-        self.class_frustum = Some(own);
+        self.own = Some(own);
         self.theta1 = margin.max(1e-3);
         if !have_all_around {
-            self.index
-                .compute(view, &enlarged, self.params.tolerance_px, &mut front);
+            plan.index
+                .compute(view, &enlarged, plan.params.tolerance_px, &mut front);
         } else if margin < std::f32::consts::FRAC_PI_2 {
-            self.index.restrict(&self.skeleton, &enlarged, &mut front);
+            plan.index.restrict(plan.skeleton, &enlarged, &mut front);
         }
         for &r in &front {
-            self.classify(r, 0, r);
+            self.classify(plan, r, 0, r);
         }
-        self.plan_sweep(&front);
-        self.scratch = front;
-        self.plan_ahead(view, margin);
+        self.front = front;
+        Some((&self.front, margin))
     }
 
     /// Bins rep `r`, found `depth` PAR/CHD steps from the F_I front, by the
@@ -59,45 +101,66 @@ impl Loader {
     /// candidates, the front rep it refines for a finer one (a child is
     /// needed when its parent's error reaches ε, and its own error, often
     /// 0 for a finest LOD, says nothing about when).
-    pub(super) fn classify(&mut self, r: RepId, depth: u8, by: RepId) {
-        if self.classified[r as usize] == self.class_gen {
+    fn classify(&mut self, plan: &Plan, r: RepId, depth: u8, by: RepId) {
+        if self.classified[r as usize] == self.generation {
             return;
         }
-        self.classified[r as usize] = self.class_gen;
-        let (Some(view), Some(own)) = (self.class_view, self.class_frustum) else {
+        self.classified[r as usize] = self.generation;
+        let (Some(view), Some(own)) = (self.view, self.own) else {
             return;
         };
-        let node = self.skeleton.reps[r as usize].node;
-        let by_node = self.skeleton.reps[by as usize].node;
-        let eps = self.index.projected_error(&view, by_node, by);
-        let (mn, mx) = self.index.node_box(node);
+        let node = plan.skeleton.reps[r as usize].node;
+        let by_node = plan.skeleton.reps[by as usize].node;
+        let eps = plan.index.projected_error(&view, by_node, by);
+        let (mn, mx) = plan.index.node_box(node);
         let theta = own.angle_to_box(mn, mx);
         let mut prio = priority(
             eps,
-            self.params.tolerance_px,
+            plan.params.tolerance_px,
             ang_pr(theta, self.theta0, self.theta1),
         );
         if depth == 0 {
             // Reps of the F_I front are visibility-prefetched whatever their
             // error (a leaf's finest rep may project above δ); δ bounds only
             // how far PAR/CHD classification reaches.
-            prio = prio.min(self.params.delta());
+            prio = prio.min(plan.params.delta());
         }
         if self.bins.push(r, prio, depth) {
-            self.queued[r as usize] = self.class_gen;
+            self.queued[r as usize] = self.generation;
         }
     }
 
     /// Classifies the parent and children of rep `o` (found `depth` steps
     /// from the front), up to the prefetch depth.
-    pub(super) fn classify_neighbours(&mut self, o: RepId, depth: u8) {
-        if depth < self.params.prefetch.depth {
-            if let Some(p) = self.skeleton.par(o) {
-                self.classify(p, depth + 1, p);
+    pub(super) fn classify_neighbours(&mut self, plan: &Plan, o: RepId, depth: u8) {
+        if depth < plan.params.prefetch.depth {
+            if let Some(p) = plan.skeleton.par(o) {
+                self.classify(plan, p, depth + 1, p);
             }
-            for c in self.skeleton.chd(o) {
-                self.classify(c, depth + 1, o);
+            for c in plan.skeleton.chd(o) {
+                self.classify(plan, c, depth + 1, o);
             }
         }
+    }
+
+    /// F_R of the classified view.
+    pub(super) fn own_frustum(&self) -> Option<Frustum> {
+        self.own
+    }
+
+    /// Makes rep `r` a candidate of this classification (the lookahead's).
+    pub(super) fn queue(&mut self, r: RepId) {
+        self.queued[r as usize] = self.generation;
+    }
+
+    /// Whether rep `r` is a candidate of this classification.
+    pub(super) fn is_queued(&self, r: RepId) -> bool {
+        self.queued[r as usize] == self.generation
+    }
+
+    /// Whether rep `r` is a candidate of this classification or of the one
+    /// before (a child is binned again only when its parent comes up).
+    pub(super) fn is_recent(&self, r: RepId) -> bool {
+        self.generation.wrapping_sub(self.queued[r as usize]) <= 1
     }
 }

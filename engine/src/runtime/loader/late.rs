@@ -13,27 +13,54 @@
 //! Stage II's.
 
 use super::Loader;
+use super::span::ReadQueue;
 use crate::skeleton::RepId;
+
+/// The front reps past this frame's stall deadline, to read after it.
+#[derive(Debug)]
+pub(super) struct LateReads {
+    pub(super) queue: ReadQueue,
+    /// The frame a rep went late in.
+    frame_of: Vec<u32>,
+}
+
+impl LateReads {
+    pub(super) fn new(reps: usize) -> Self {
+        Self {
+            queue: ReadQueue::default(),
+            frame_of: vec![u32::MAX; reps],
+        }
+    }
+
+    /// A new Stage II: the late reps of the frame before are not.
+    pub(super) fn clear(&mut self) {
+        self.queue.clear();
+    }
+
+    /// Rep `r` of frame `frame`'s front missed its deadline.
+    pub(super) fn push(&mut self, r: RepId, frame: u32) {
+        self.frame_of[r as usize] = frame;
+        self.queue.reps.push(r);
+    }
+
+    /// Whether rep `r` went late in frame `frame`.
+    pub(super) fn is_late(&self, r: RepId, frame: u32) -> bool {
+        self.frame_of[r as usize] == frame
+    }
+}
 
 impl Loader {
     /// Whether Stage II may start reading rep `r` under the stall deadline.
     pub(super) fn in_time_for_frame(&self, r: RepId) -> bool {
-        let d = self.params.stall_deadline_s;
-        let Some(at) = self.last_fetch_at else {
-            return true;
-        };
-        if d <= 0.0 {
-            return true;
-        }
-        let need = self.first_block_s(r);
-        let Some(deadline) = crate::limits::after(at, f64::from(d)) else {
-            return true;
-        };
-        crate::limits::after(self.clock.now(), need).is_some_and(|t| t <= deadline)
+        self.pacing.in_time_for_frame(
+            self.clock.now(),
+            self.first_block_s(r),
+            f64::from(self.params.stall_deadline_s),
+        )
     }
 
     /// Whether rep `r` is late: in this frame's front and past its deadline.
     pub(super) fn is_late(&self, r: RepId) -> bool {
-        self.late_stamp[r as usize] == self.res.frame()
+        self.late.is_late(r, self.res.frame())
     }
 }

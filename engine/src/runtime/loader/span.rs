@@ -13,7 +13,10 @@
 
 use std::time::Duration;
 
+use crossbeam_channel::Receiver;
+
 use super::{LoadError, Loader, Purpose};
+use crate::runtime::Cmd;
 use crate::skeleton::{RepId, Skeleton};
 
 /// Learnt read costs of the rep source.
@@ -177,11 +180,11 @@ impl Loader {
         let seek = u32::from(self.costs.last_end() != Some(offset));
         match purpose {
             Purpose::Demand => {
-                self.stats.stage2_io_s += took.as_secs_f64();
+                self.stats.stage2_io_ms += took.as_secs_f64() * 1e3;
                 self.stats.stage2_seeks += seek;
             }
             Purpose::Prefetch => {
-                self.stats.prefetch_io_s += took.as_secs_f64();
+                self.stats.prefetch_io_ms += took.as_secs_f64() * 1e3;
                 self.stats.prefetch_seeks += seek;
             }
         }
@@ -198,7 +201,7 @@ impl Loader {
     /// passes over it: queued in this classification (or late in this
     /// frame) and not resident.
     pub(super) fn wanted(&self, g: RepId) -> bool {
-        (self.queued[g as usize] == self.class_gen || self.is_late(g))
+        (self.classes.is_queued(g) || self.is_late(g))
             && !self.res.contains(g)
             && !self.failed[g as usize]
     }
@@ -279,13 +282,7 @@ impl Loader {
 
     /// Whether a new fetch command arrived (kept as pending).
     pub(super) fn preempted(&mut self) -> bool {
-        if self.pending.is_none()
-            && let Ok(c) = self.cmds.try_recv()
-        {
-            self.pending = Some(c);
-            return true;
-        }
-        false
+        preempted(&mut self.pending, &self.cmds)
     }
 
     /// Whether the first block of a prefetch read of rep `r` ends before
@@ -316,10 +313,7 @@ impl Loader {
     }
 
     pub(super) fn ends_in_time(&self, need_s: f64) -> bool {
-        let Some(due) = self.next_fetch else {
-            return true;
-        };
-        crate::limits::after(self.clock.now(), need_s).is_some_and(|t| t <= due)
+        self.pacing.ends_in_time(self.clock.now(), need_s)
     }
 
     /// One read from the queue `queue` picks (the next rep still wanted), and
@@ -385,6 +379,18 @@ impl Loader {
             x = n;
         }
     }
+}
+
+/// Whether a new command arrived on `cmds` (kept in `pending`, which must
+/// be empty).
+pub(super) fn preempted(pending: &mut Option<Cmd>, cmds: &Receiver<Cmd>) -> bool {
+    if pending.is_none()
+        && let Ok(c) = cmds.try_recv()
+    {
+        *pending = Some(c);
+        return true;
+    }
+    false
 }
 
 #[cfg(test)]

@@ -11,42 +11,81 @@
 //! wraps round at the end of the file. Prefetch steps alternate between
 //! the sweep and the bins (the paper's priority order).
 
-use super::{LoadError, Loader, Purpose};
+use super::{LoadError, Loader, Plan, Purpose};
+use crate::runtime::resident::ResidentSet;
 use crate::skeleton::RepId;
 
-impl Loader {
-    /// Collects the small reps of the (enlarged-frustum) front not resident.
-    pub(super) fn plan_sweep(&mut self, front: &[RepId]) {
-        self.sweep.clear();
-        let small = u64::from(self.params.prefetch.sweep_bytes);
+/// The elevator through the small reps of F_I's front.
+#[derive(Debug, Default)]
+pub(super) struct Sweep {
+    /// The candidates, in file order.
+    reps: Vec<RepId>,
+    /// The offset where the sweep goes on.
+    at: u64,
+    /// Whether this prefetch step is the sweep's (they alternate with the
+    /// bins').
+    turn: bool,
+}
+
+impl Sweep {
+    /// Collects the small reps (`PrefetchParams::sweep_bytes`) of the
+    /// F_I `front` that are not resident.
+    pub(super) fn plan(
+        &mut self,
+        plan: &Plan,
+        res: &ResidentSet,
+        failed: &[bool],
+        front: &[RepId],
+    ) {
+        self.reps.clear();
+        let small = u64::from(plan.params.prefetch.sweep_bytes);
         if small == 0 {
             return;
         }
         for &r in front {
-            if !self.res.contains(r) && !self.failed[r as usize] && self.cost(r) <= small {
-                self.sweep.push(r);
+            if !res.contains(r) && !failed[r as usize] && res.cost(r) <= small {
+                self.reps.push(r);
             }
         }
-        self.sweep
-            .sort_unstable_by_key(|&r| self.skeleton.reps[r as usize].offset);
+        let reps = &plan.skeleton.reps;
+        self.reps.sort_unstable_by_key(|&r| reps[r as usize].offset);
     }
 
+    /// Whether this prefetch step is the sweep's: every other one.
+    pub(super) fn take_turn(&mut self) -> bool {
+        self.turn = !self.turn;
+        self.turn
+    }
+
+    /// The next candidate still `wanted` at or after the cursor, wrapping
+    /// round.
+    pub(super) fn next(&self, plan: &Plan, wanted: impl Fn(RepId) -> bool) -> Option<RepId> {
+        let n = self.reps.len();
+        let reps = &plan.skeleton.reps;
+        let i = self
+            .reps
+            .partition_point(|&r| reps[r as usize].offset < self.at);
+        (0..n).map(|k| self.reps[(i + k) % n]).find(|&r| wanted(r))
+    }
+
+    /// The sweep goes on from byte `offset`.
+    pub(super) fn moved_to(&mut self, offset: u64) {
+        self.at = offset;
+    }
+
+    /// Ends the sweep (nothing left to read, or no room left for it).
+    pub(super) fn clear(&mut self) {
+        self.reps.clear();
+    }
+}
+
+impl Loader {
     /// One sweep read: the next small candidate at or after the cursor
     /// (wrapping round), and on through the file while cheap. Returns
     /// whether it read (or tried to).
     pub(super) fn sweep_step(&mut self) -> bool {
-        let n = self.sweep.len();
-        if n == 0 {
-            return false;
-        }
-        let at = self.sweep_at;
-        let i = self
-            .sweep
-            .partition_point(|&r| self.skeleton.reps[r as usize].offset < at);
-        let next = (0..n)
-            .map(|k| self.sweep[(i + k) % n])
-            .find(|&r| self.wanted(r));
-        let Some(r) = next else {
+        let plan = Plan::of(&self.skeleton, &self.index, &self.params);
+        let Some(r) = self.sweep.next(&plan, |r| self.wanted(r)) else {
             self.sweep.clear();
             return false;
         };
@@ -65,7 +104,36 @@ impl Loader {
             Ok(()) | Err(LoadError::Failed) | Err(LoadError::Preempted) => {}
             Err(LoadError::NoRoom) => self.sweep.clear(),
         }
-        self.sweep_at = self.costs.last_end().unwrap_or(rec.offset);
+        self.sweep
+            .moved_to(self.costs.last_end().unwrap_or(rec.offset));
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::build;
+
+    #[test]
+    fn the_sweep_goes_on_from_its_cursor_and_wraps_round() {
+        let (_, s) = build(&[1, 1, 1, 1, 1], &[4, 0, 0, 0, 0]);
+        let mut params = crate::runtime::RuntimeParams::default();
+        params.prefetch.sweep_bytes = 1 << 20;
+        let index = crate::front::FrontIndex::new(&s);
+        let plan = Plan::of(&s, &index, &params);
+        let res = ResidentSet::new(s.reps.iter().map(|r| u64::from(r.len)).collect());
+        let failed = vec![false; s.reps.len()];
+        let mut w = Sweep::default();
+        // Given out of file order; the root rep (0) is not in this front.
+        w.plan(&plan, &res, &failed, &[4, 2, 1, 3]);
+        assert_eq!(w.reps, vec![1, 2, 3, 4]);
+        w.moved_to(s.reps[3].offset);
+        assert_eq!(w.next(&plan, |_| true), Some(3));
+        // Past the last candidate: round to the first still wanted.
+        w.moved_to(s.reps[4].offset + 1);
+        assert_eq!(w.next(&plan, |r| r != 1), Some(2));
+        assert_eq!(w.next(&plan, |_| false), None);
+        assert!(w.take_turn() && !w.take_turn(), "every other step");
     }
 }

@@ -345,14 +345,14 @@ fn run(a: Args) -> Result<()> {
             None => &mut none_r,
         };
         let over_budget = |f: &engine::metrics::FrameMetrics| {
-            mode != Mode::Incore && (f.max_resident_bytes > budget || f.gpu_bytes > budget)
+            mode != Mode::Incore && (f.loader.max_resident_bytes > budget || f.gpu_bytes > budget)
         };
         // The first frame loads the first front; the others come a frame
         // period apart after it.
         let mut warm_read = 0u64;
         let mut over = 0usize;
         let mut warm_each = |f: engine::metrics::FrameMetrics| {
-            warm_read += f.stage2_bytes + f.prefetch_bytes;
+            warm_read += f.loader.stage2_bytes + f.loader.prefetch_bytes;
             over += usize::from(over_budget(&f));
             Ok::<(), std::io::Error>(())
         };

@@ -1,0 +1,196 @@
+//! The read planners without a thread, a channel or a byte source: CLASSIFY
+//! and the lookahead on a row of parts, with the time from a test clock.
+
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+use glam::Vec3;
+
+use super::Plan;
+use super::ahead::Lookahead;
+use super::classify::Classifier;
+use crate::camera::Pose;
+use crate::clock::{Clock, ManualClock};
+use crate::front::FrontIndex;
+use crate::prefetch::Bins;
+use crate::runtime::RuntimeParams;
+use crate::runtime::resident::ResidentSet;
+use crate::skeleton::{RepId, Skeleton};
+use crate::testutil::build;
+
+/// A root over 24 unit parts in a row along x (reps 1..=24; rep k spans
+/// x in [k-1, k]).
+fn row() -> Skeleton {
+    let mut reps = vec![1u32; 25];
+    reps[0] = 1;
+    let mut children = vec![0u32; 25];
+    children[0] = 24;
+    build(&reps, &children).1
+}
+
+/// A narrow view of the row from above, at `x`.
+fn pose_at(x: f32) -> Pose {
+    Pose::look_at(Vec3::new(x, 0.5, 3.0), Vec3::new(x, 0.5, 0.0), 20.0)
+}
+
+fn params() -> RuntimeParams {
+    let mut p = RuntimeParams::default();
+    // No all-around front: F_I is the view widened by the margin.
+    p.prefetch.all_around_fit = 0.0;
+    p.prefetch.margin_deg = 10.0;
+    p.prefetch.lookahead_frames = 6;
+    p
+}
+
+fn setup(s: &Skeleton, p: &RuntimeParams) -> (FrontIndex, ResidentSet, Classifier) {
+    let index = FrontIndex::new(s);
+    let res = ResidentSet::new(s.reps.iter().map(|r| u64::from(r.len)).collect());
+    let bins = Bins::new(p.prefetch.bins, 4.0 * p.tolerance_px, p.tolerance_px);
+    (index, res, Classifier::new(s.reps.len(), bins))
+}
+
+/// The x the parts of `reps` start at.
+fn xs(s: &Skeleton, reps: &[RepId]) -> Vec<i32> {
+    reps.iter()
+        .map(|&r| s.reps[r as usize].bbox_min[0] as i32)
+        .collect()
+}
+
+#[test]
+fn classify_bins_the_enlarged_front_once_per_viewpoint() {
+    let (s, p) = (row(), params());
+    let (index, res, mut c) = setup(&s, &p);
+    let plan = Plan::of(&s, &index, &p);
+    let view = p.view(&pose_at(12.0));
+    let (front, margin) = c.classify_front(&plan, &res, &view, 0.0).unwrap();
+    let front = front.to_vec();
+    assert!((margin - 10f32.to_radians()).abs() < 1e-6);
+    let x = xs(&s, &front);
+    assert!(
+        x.contains(&12) && !x.contains(&0) && !x.contains(&23),
+        "{x:?}"
+    );
+    assert_eq!(c.bins.len(), front.len());
+    assert!(front.iter().all(|&r| c.is_queued(r)));
+    // The same viewpoint again: nothing is reclassified.
+    assert!(c.classify_front(&plan, &res, &view, 0.0).is_none());
+    // Front reps come out first (their priority is capped at δ).
+    let (first, depth) = c.bins.pop().unwrap();
+    assert!(front.contains(&first) && depth == 0);
+    // Its parent (the root) is classified when it is served, but its error
+    // projects far above δ here: not a candidate.
+    let before = c.bins.len();
+    c.classify_neighbours(&plan, first, depth);
+    assert!(!c.is_queued(0) && c.bins.len() == before);
+    // A new viewpoint: a new generation; the old candidates are recent.
+    let moved = p.view(&pose_at(4.0));
+    assert!(c.classify_front(&plan, &res, &moved, 0.0).is_some());
+    assert!(!c.is_queued(first) && c.is_recent(first));
+}
+
+/// A clock that moves by `step` each time it is read.
+#[derive(Debug)]
+struct Ticking {
+    base: Instant,
+    reads: AtomicU32,
+    step: Duration,
+}
+
+impl Clock for Ticking {
+    fn now(&self) -> Instant {
+        self.base + self.step * self.reads.fetch_add(1, Ordering::Relaxed)
+    }
+}
+
+#[test]
+fn the_lookahead_serves_the_parts_the_motion_reaches_first() {
+    let (s, p) = (row(), params());
+    let (index, mut res, mut c) = setup(&s, &p);
+    let plan = Plan::of(&s, &index, &p);
+    let failed = vec![false; s.reps.len()];
+    let mut ahead = Lookahead::default();
+    // Moving along +x by one part per frame.
+    ahead.observe(&pose_at(4.0));
+    ahead.observe(&pose_at(5.0));
+    let view = p.view(&pose_at(5.0));
+    let (_, margin) = c.classify_front(&plan, &res, &view, 0.0).unwrap();
+    let clock = ManualClock::new();
+    let mut stops = 0;
+    ahead.plan(
+        &plan,
+        &mut res,
+        &failed,
+        &mut c,
+        &view,
+        margin,
+        &clock,
+        &mut || {
+            stops += 1;
+            true
+        },
+    );
+    assert_eq!(stops, 0, "the clock did not move: the whole plan is made");
+    let queued = ahead.queue.reps.clone();
+    let x = xs(&s, &queued);
+    // Ahead (x > 5) before anything behind, the next frame's first.
+    assert!(x.iter().any(|&v| v >= 9), "{x:?}");
+    let first_behind = x.iter().position(|&v| v < 4).unwrap_or(x.len());
+    assert!(x[..first_behind].iter().all(|&v| v >= 4), "{x:?}");
+    assert!(queued.iter().all(|&r| c.is_queued(r)));
+    // At rest there is nothing ahead.
+    let mut still = Lookahead::default();
+    still.observe(&pose_at(5.0));
+    still.observe(&pose_at(5.0));
+    still.plan(
+        &plan,
+        &mut res,
+        &failed,
+        &mut c,
+        &view,
+        margin,
+        &clock,
+        &mut || true,
+    );
+    assert!(still.queue.reps.is_empty());
+    // A resident part is touched, not queued.
+    res.reserve(res.cost(queued[0]));
+    res.insert(
+        queued[0],
+        vec![0u8; s.reps[queued[0] as usize].len as usize].into(),
+        false,
+    );
+    ahead.plan(
+        &plan,
+        &mut res,
+        &failed,
+        &mut c,
+        &view,
+        margin,
+        &clock,
+        &mut || true,
+    );
+    assert!(!ahead.queue.reps.contains(&queued[0]));
+    // A clock past the planning budget and a waiting fetch command stop the
+    // plan after the first frame ahead.
+    let ticking = Ticking {
+        base: Instant::now(),
+        reads: AtomicU32::new(0),
+        step: Duration::from_millis(2),
+    };
+    ahead.plan(
+        &plan,
+        &mut res,
+        &failed,
+        &mut c,
+        &view,
+        margin,
+        &ticking,
+        &mut || true,
+    );
+    let short = ahead.queue.reps.len();
+    assert!(
+        short > 0 && short < queued.len() - 1,
+        "{short} of {}",
+        queued.len()
+    );
+}
