@@ -31,25 +31,90 @@ impl Cell for f64 {
     }
 }
 
+/// How a column is totalled over a run: summed, or its largest value.
+pub trait Total: Copy {
+    type Out: Copy + Default + std::fmt::Debug + PartialEq;
+    fn sum(acc: &mut Self::Out, v: Self);
+    fn max(acc: &mut Self::Out, v: Self);
+}
+
+impl Total for u32 {
+    type Out = u64;
+    fn sum(acc: &mut u64, v: u32) {
+        *acc += u64::from(v);
+    }
+    fn max(acc: &mut u64, v: u32) {
+        *acc = (*acc).max(u64::from(v));
+    }
+}
+
+impl Total for u64 {
+    type Out = u64;
+    fn sum(acc: &mut u64, v: u64) {
+        *acc = acc.saturating_add(v);
+    }
+    fn max(acc: &mut u64, v: u64) {
+        *acc = (*acc).max(v);
+    }
+}
+
+impl Total for f64 {
+    type Out = f64;
+    fn sum(acc: &mut f64, v: f64) {
+        *acc += v;
+    }
+    fn max(acc: &mut f64, v: f64) {
+        *acc = acc.max(v);
+    }
+}
+
 /// Defines [`FrameMetrics`] and the [`LoaderCounters`] embedded in it from
 /// one field list (`loader.name: type` for P_I's), with the CSV header and
-/// row, whose columns follow the list.
+/// row, whose columns follow the list, and the run's [`FrameTotals`] of the
+/// columns marked `=> sum` or `=> max`.
 macro_rules! frame_metrics {
-    // Sorts each field into FrameMetrics' own or the loader's, and keeps
-    // the column order: `name (prefix)`.
-    (@sort [$($own:tt)*] [$($ldr:tt)*] [$($col:tt)*]
+    // Sorts each field into FrameMetrics' own or the loader's, keeps the
+    // column order (`name (prefix)`) and the run totals (`name (prefix)
+    // type how`).
+    (@sort [$($own:tt)*] [$($ldr:tt)*] [$($col:tt)*] [$($tot:tt)*]
+        $(#[$doc:meta])* loader . $field:ident : $ty:ty => $how:ident, $($rest:tt)*) => {
+        frame_metrics!(@sort [$($own)*] [$($ldr)* $(#[$doc])* $field: $ty,]
+            [$($col)* $field (loader)] [$($tot)* $field (loader) [$ty] $how] $($rest)*);
+    };
+    (@sort [$($own:tt)*] [$($ldr:tt)*] [$($col:tt)*] [$($tot:tt)*]
         $(#[$doc:meta])* loader . $field:ident : $ty:ty, $($rest:tt)*) => {
         frame_metrics!(@sort [$($own)*] [$($ldr)* $(#[$doc])* $field: $ty,]
-            [$($col)* $field (loader)] $($rest)*);
+            [$($col)* $field (loader)] [$($tot)*] $($rest)*);
     };
-    (@sort [$($own:tt)*] [$($ldr:tt)*] [$($col:tt)*]
+    (@sort [$($own:tt)*] [$($ldr:tt)*] [$($col:tt)*] [$($tot:tt)*]
+        $(#[$doc:meta])* $field:ident : $ty:ty => $how:ident, $($rest:tt)*) => {
+        frame_metrics!(@sort [$($own)* $(#[$doc])* $field: $ty,] [$($ldr)*]
+            [$($col)* $field ()] [$($tot)* $field () [$ty] $how] $($rest)*);
+    };
+    (@sort [$($own:tt)*] [$($ldr:tt)*] [$($col:tt)*] [$($tot:tt)*]
         $(#[$doc:meta])* $field:ident : $ty:ty, $($rest:tt)*) => {
         frame_metrics!(@sort [$($own)* $(#[$doc])* $field: $ty,] [$($ldr)*]
-            [$($col)* $field ()] $($rest)*);
+            [$($col)* $field ()] [$($tot)*] $($rest)*);
     };
     (@sort [$($(#[$odoc:meta])* $own:ident : $oty:ty,)*]
         [$($(#[$ldoc:meta])* $ldr:ident : $lty:ty,)*]
-        [$($col:ident ($($pre:ident)?))*]) => {
+        [$($col:ident ($($pre:ident)?))*]
+        [$($tf:ident ($($tpre:ident)?) [$tty:ty] $how:ident)*]) => {
+        /// A run's totals of the columns that add up (`=> sum`) and the
+        /// largest value of those that are levels (`=> max`), integers in
+        /// `u64`; [`FrameTotals::add`] takes one frame.
+        #[derive(Clone, Copy, Debug, Default, PartialEq)]
+        pub struct FrameTotals {
+            $( pub $tf: <$tty as Total>::Out, )*
+        }
+
+        impl FrameTotals {
+            /// Adds frame `f`.
+            pub fn add(&mut self, f: &FrameMetrics) {
+                $( <$tty as Total>::$how(&mut self.$tf, f $(.$tpre)? .$tf); )*
+            }
+        }
+
         /// What one frame did. `stage2_bytes` were fetched on demand while
         /// P_R waited to render; `prefetch_bytes` were loaded by P_I since
         /// the previous frame's Stage II ended (Stages III and I).
@@ -104,7 +169,7 @@ macro_rules! frame_metrics {
         }
     };
     ({ $($body:tt)* }) => {
-        frame_metrics!(@sort [] [] [] $($body)*);
+        frame_metrics!(@sort [] [] [] [] $($body)*);
     };
 }
 
@@ -112,39 +177,39 @@ frame_metrics! {
     {
         frame: u32,
         mode: &'static str,
-        frame_ms: f64,
-        front_ms: f64,
-        wait_ms: f64,
+        frame_ms: f64 => sum,
+        front_ms: f64 => sum,
+        wait_ms: f64 => sum,
         front_reps: u32,
         front_tris: u64,
-        front_bytes: u64,
-        loader.missing_reps: u32,
-        loader.stage2_bytes: u64,
-        loader.prefetch_bytes: u64,
+        front_bytes: u64 => max,
+        loader.missing_reps: u32 => sum,
+        loader.stage2_bytes: u64 => sum,
+        loader.prefetch_bytes: u64 => sum,
         loader.resident_bytes: u64,
         /// The largest resident footprint at any moment since the previous frame.
-        loader.max_resident_bytes: u64,
-        budget_bytes: u64,
-        loader.evictions: u32,
+        loader.max_resident_bytes: u64 => max,
+        budget_bytes: u64 => max,
+        loader.evictions: u32 => sum,
         /// Front reps drawn as a resident ancestor.
-        substituted: u32,
+        substituted: u32 => sum,
         /// Front reps drawn as themselves.
         drawn_reps: u32,
         drawn_tris: u64,
-        loader.read_errors: u32,
+        loader.read_errors: u32 => sum,
         nodes_visited: u32,
         /// Misses whose node was in the previous front (an LOD switch).
-        loader.miss_lod: u32,
+        loader.miss_lod: u32 => sum,
         /// Misses whose ancestor or descendant node was (an HLOD switch).
-        loader.miss_hier: u32,
+        loader.miss_hier: u32 => sum,
         /// Misses of newly visible parts of the scene.
-        loader.miss_new: u32,
+        loader.miss_new: u32 => sum,
         /// Time P_I spent reading for Stage II and for prefetching since the
         /// previous frame (the disk's busy time).
-        loader.stage2_io_ms: f64,
-        loader.prefetch_io_ms: f64,
+        loader.stage2_io_ms: f64 => sum,
+        loader.prefetch_io_ms: f64 => sum,
         /// Rep geometry held by the renderer on the GPU (0 without a GPU).
-        gpu_bytes: u64,
+        gpu_bytes: u64 => max,
         /// Prefetch candidates queued in P_I's bins at the end of Stage II.
         loader.prefetch_queue: u32,
         /// View-dependence trees drawn this frame, their splits + collapses
@@ -153,31 +218,31 @@ frame_metrics! {
         /// bytes their stores hold (in-core part + place holders, within the
         /// footprint reserved for them) and the refinement time.
         vdt_trees: u32,
-        adapt: u32,
-        vdt_tris: u64,
-        vdt_misses: u32,
-        metas_loaded: u32,
-        vdt_bytes: u64,
-        vdt_ms: f64,
+        adapt: u32 => sum,
+        vdt_tris: u64 => sum,
+        vdt_misses: u32 => sum,
+        metas_loaded: u32 => sum,
+        vdt_bytes: u64 => max,
+        vdt_ms: f64 => sum,
         /// Bytes of gaps P_I read through instead of seeking over (not kept).
-        loader.skipped_bytes: u64,
+        loader.skipped_bytes: u64 => sum,
         /// Prefetch reads continued after a fetch command preempted them.
-        loader.resumed: u32,
+        loader.resumed: u32 => sum,
         /// Bytes of prefetched reps evicted before they were ever drawn.
-        loader.wasted_bytes: u64,
+        loader.wasted_bytes: u64 => sum,
         /// Reads that did not continue where P_I's previous read ended, in
         /// Stage II and in prefetching.
-        loader.stage2_seeks: u32,
-        loader.prefetch_seeks: u32,
+        loader.stage2_seeks: u32 => sum,
+        loader.prefetch_seeks: u32 => sum,
         /// Front reps drawn as an ancestor because the stall deadline passed
         /// (also counted in `substituted`), and bytes read on demand after
         /// their frame's deadline.
-        loader.late_reps: u32,
-        loader.late_bytes: u64,
+        loader.late_reps: u32 => sum,
+        loader.late_bytes: u64 => sum,
         /// P_I's time classifying fronts for prefetching (the F_I front, its
         /// bins and the lookahead fronts) since the previous frame; CPU time
         /// on P_I's thread, not the disk's.
-        loader.classify_ms: f64,
+        loader.classify_ms: f64 => sum,
     }
 }
 
@@ -223,6 +288,8 @@ pub struct Summary {
     pub mean_vdt_ms: f64,
     pub metas_loaded: u64,
     pub max_vdt_bytes: u64,
+    /// Every column's run total (or largest value).
+    pub totals: FrameTotals,
 }
 
 /// `q`-quantile (0..=1) of `v` by the nearest-rank method.
@@ -252,41 +319,22 @@ pub struct TracePoint {
 /// go to a [`CsvStream`], not to memory).
 #[derive(Clone, Debug, Default)]
 pub struct Recorder {
-    acc: Summary,
+    mode: &'static str,
+    totals: FrameTotals,
     trace: Vec<TracePoint>,
-    sum_ms: f64,
-    sum_front_ms: f64,
-    adapt: u64,
-    vdt_misses: u64,
-    sum_vdt_tris: f64,
-    sum_vdt_ms: f64,
+    /// Frames that drew a view-dependence tree.
+    vdt_frames: usize,
 }
 
 impl Recorder {
     /// Adds one frame.
     pub fn push(&mut self, f: &FrameMetrics) {
-        let a = &mut self.acc;
-        if a.frames == 0 {
-            a.mode = f.mode;
-            a.budget_bytes = f.budget_bytes;
+        if self.trace.is_empty() {
+            self.mode = f.mode;
         }
-        a.frames += 1;
-        a.max_ms = a.max_ms.max(f.frame_ms);
-        a.stage2_bytes += f.loader.stage2_bytes + f.loader.late_bytes;
-        a.prefetch_bytes += f.loader.prefetch_bytes;
-        a.max_resident_bytes = a.max_resident_bytes.max(f.loader.max_resident_bytes);
-        a.substituted += u64::from(f.substituted);
-        a.late_reps += u64::from(f.loader.late_reps);
-        a.metas_loaded += u64::from(f.metas_loaded);
-        a.max_vdt_bytes = a.max_vdt_bytes.max(f.vdt_bytes);
-        self.sum_ms += f.frame_ms;
-        self.sum_front_ms += f.front_ms;
+        self.totals.add(f);
         if f.vdt_trees > 0 {
-            a.vdt_frames += 1;
-            self.adapt += u64::from(f.adapt);
-            self.vdt_misses += u64::from(f.vdt_misses);
-            self.sum_vdt_tris += f.vdt_tris as f64;
-            self.sum_vdt_ms += f.vdt_ms;
+            self.vdt_frames += 1;
         }
         self.trace.push(TracePoint {
             frame_ms: f.frame_ms,
@@ -311,21 +359,36 @@ impl Recorder {
     /// The summary against the frame period `period_ms`.
     pub fn summary(&self, period_ms: f64) -> Summary {
         let t: Vec<f64> = self.trace.iter().map(|p| p.frame_ms).collect();
+        let tot = &self.totals;
         let n = t.len().max(1) as f64;
-        let k = self.acc.vdt_frames.max(1) as f64;
+        // Tree columns are 0 in frames without a tree: their sums are the
+        // sums over the frames with one.
+        let k = self.vdt_frames.max(1) as f64;
         Summary {
-            mean_ms: self.sum_ms / n,
+            mode: self.mode,
+            frames: t.len(),
+            mean_ms: tot.frame_ms / n,
             median_ms: quantile(&t, 0.5),
             p99_ms: quantile(&t, 0.99),
+            max_ms: t.iter().copied().fold(0.0, f64::max),
             over_period: t.iter().filter(|&&x| x > period_ms).count(),
-            mean_front_ms: self.sum_front_ms / n,
-            mean_adapt: self.adapt as f64 / k,
+            stage2_bytes: tot.stage2_bytes + tot.late_bytes,
+            prefetch_bytes: tot.prefetch_bytes,
+            max_resident_bytes: tot.max_resident_bytes,
+            budget_bytes: tot.budget_bytes,
+            substituted: tot.substituted,
+            late_reps: tot.late_reps,
+            mean_front_ms: tot.front_ms / n,
+            vdt_frames: self.vdt_frames,
+            mean_adapt: tot.adapt as f64 / k,
             // `+ 0.0`: an empty sum is -0.0.
-            mean_vdt_tris: self.sum_vdt_tris / k + 0.0,
-            vdt_miss_pct: 100.0 * self.vdt_misses as f64
-                / (self.adapt + self.vdt_misses).max(1) as f64,
-            mean_vdt_ms: self.sum_vdt_ms / k + 0.0,
-            ..self.acc.clone()
+            mean_vdt_tris: tot.vdt_tris as f64 / k + 0.0,
+            vdt_miss_pct: 100.0 * tot.vdt_misses as f64
+                / (tot.adapt + tot.vdt_misses).max(1) as f64,
+            mean_vdt_ms: tot.vdt_ms / k + 0.0,
+            metas_loaded: tot.metas_loaded,
+            max_vdt_bytes: tot.vdt_bytes,
+            totals: *tot,
         }
     }
 }
@@ -464,6 +527,34 @@ mod tests {
             "{row}"
         );
         assert!(row.ends_with(",0,0,0.500"), "{row}");
+    }
+
+    #[test]
+    fn totals_sum_the_counters_and_keep_the_largest_levels() {
+        let f = |i: u32| FrameMetrics {
+            frame_ms: f64::from(i),
+            substituted: i,
+            gpu_bytes: u64::from(10 - i),
+            loader: LoaderCounters {
+                stage2_bytes: 100,
+                late_bytes: 1,
+                max_resident_bytes: u64::from(i) * 7,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let mut t = FrameTotals::default();
+        for i in 1..=4 {
+            t.add(&f(i));
+        }
+        assert_eq!(t.frame_ms, 10.0);
+        assert_eq!(t.substituted, 10);
+        assert_eq!(t.stage2_bytes, 400);
+        assert_eq!(t.max_resident_bytes, 28);
+        assert_eq!(t.gpu_bytes, 9);
+        let s = summarize(&(1..=4).map(f).collect::<Vec<_>>(), 2.5);
+        assert_eq!((s.stage2_bytes, s.over_period, s.totals), (404, 2, t));
+        assert_eq!((s.mean_ms, s.max_ms), (2.5, 4.0));
     }
 
     #[test]
