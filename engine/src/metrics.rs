@@ -243,6 +243,17 @@ frame_metrics! {
         /// bins and the lookahead fronts) since the previous frame; CPU time
         /// on P_I's thread, not the disk's.
         loader.classify_ms: f64 => sum,
+        /// Prefetch reads refused because no room could be made under the
+        /// budget (what could be evicted was accessed this frame, pinned, or
+        /// not speculative past the speculative cap).
+        loader.prefetch_noroom: u32 => sum,
+        /// Times P_I chose to wait for the fetch command, its next read not
+        /// ending before it was due.
+        loader.prefetch_waits: u32 => sum,
+        /// P_I's time waiting for a command with nothing to read.
+        loader.idle_ms: f64 => sum,
+        /// Of `classify_ms`: the lookahead's fronts.
+        loader.lookahead_ms: f64 => sum,
     }
 }
 
@@ -508,7 +519,7 @@ mod tests {
         // the column list generated them (P_I's counters among P_R's).
         assert_eq!(
             CSV_HEADER,
-            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms"
+            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms,prefetch_noroom,prefetch_waits,idle_ms,lookahead_ms"
         );
         let f = FrameMetrics {
             frame: 7,
@@ -526,7 +537,7 @@ mod tests {
             row.starts_with("7,pre,12.346,0.000,0.000,0,0,0,0,4096,"),
             "{row}"
         );
-        assert!(row.ends_with(",0,0,0.500"), "{row}");
+        assert!(row.ends_with(",0,0,0.500,0,0,0.000,0.000"), "{row}");
     }
 
     #[test]

@@ -26,7 +26,7 @@ use std::sync::Arc;
 use crossbeam_channel::{Receiver, Sender, TryRecvError};
 
 use super::resident::{Purpose, ResidentSet};
-use super::{Cmd, Mode, Reply, RuntimeError, RuntimeParams};
+use super::{Cmd, Draw, Mode, Reply, RuntimeError, RuntimeParams};
 use crate::camera::View;
 use crate::format::check_rep_crc;
 use crate::front::FrontIndex;
@@ -41,6 +41,11 @@ use misses::MissAccount;
 use pacing::Pacing;
 use span::{FileOrder, IoCosts, Partial, preempted};
 use sweep::Sweep;
+
+/// Resident front reps handed to P_R per message: P_R starts drawing after
+/// the first few, and the channel (256 messages) holds a front of 65,536
+/// reps, so that P_I does not wait for P_R to draw them.
+const DRAW_BATCH: usize = 256;
 
 /// P_R is gone (its receiver dropped): P_I stops.
 #[derive(Debug)]
@@ -188,7 +193,12 @@ impl Loader {
                     Err(TryRecvError::Disconnected) => return,
                 }
             } else {
-                match self.cmds.recv() {
+                let t = self.clock.now();
+                let c = self.cmds.recv();
+                if !self.wait_fetch {
+                    self.stats.idle_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
+                }
+                match c {
                     Ok(c) => c,
                     Err(_) => return,
                 }
@@ -229,6 +239,7 @@ impl Loader {
             return;
         };
         self.sweep.plan(&plan, &self.res, &self.failed, front);
+        let t = self.clock.now();
         let (pending, cmds) = (&mut self.pending, &self.cmds);
         let mut stop = || pending.is_some() || preempted(pending, cmds);
         self.ahead.plan(
@@ -241,6 +252,7 @@ impl Loader {
             self.clock.as_ref(),
             &mut stop,
         );
+        self.stats.lookahead_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
     }
 
     /// Footprint bytes of rep `r` while resident: its payload, and the
@@ -315,19 +327,28 @@ impl Loader {
     fn fetch(&mut self, front: &[RepId]) -> Result<(), RendererGone> {
         self.res.start_stage2(front);
         let mut missing = Vec::new();
+        let mut draws = Vec::with_capacity(DRAW_BATCH.min(front.len()));
         for &r in front {
             match self.res.payload(r) {
                 Some(d) => {
                     let payload = d.clone();
                     self.res.access(r);
-                    self.send(Reply::Draw {
+                    draws.push(Draw {
                         rep: r,
                         for_rep: r,
                         payload,
-                    })?;
+                    });
+                    if draws.len() == DRAW_BATCH {
+                        // P_R starts drawing while P_I goes through the rest.
+                        let next = Vec::with_capacity(DRAW_BATCH);
+                        self.send(Reply::Draws(std::mem::replace(&mut draws, next)))?;
+                    }
                 }
                 None => missing.push(r),
             }
+        }
+        if !draws.is_empty() {
+            self.send(Reply::Draws(draws))?;
         }
         self.stats.missing_reps = missing.len() as u32;
         let m = self
@@ -354,11 +375,11 @@ impl Loader {
                 self.bridge(end, self.skeleton.reps[r as usize].offset, Purpose::Demand);
             }
             match self.load(r, Purpose::Demand) {
-                Ok(payload) => self.send(Reply::Draw {
+                Ok(payload) => self.send(Reply::Draw(Draw {
                     rep: r,
                     for_rep: r,
                     payload,
-                })?,
+                }))?,
                 Err(_) => self.substitute(r)?,
             }
         }
@@ -391,11 +412,11 @@ impl Loader {
                 let payload = d.clone();
                 self.res.pin(x);
                 self.res.access(x);
-                return self.send(Reply::Draw {
+                return self.send(Reply::Draw(Draw {
                     rep: x,
                     for_rep: r,
                     payload,
-                });
+                }));
             }
             a = self.skeleton.par(x);
         }
@@ -443,6 +464,9 @@ impl Loader {
                         && self.cancel_partial()
                         && self.make_room(len, purpose));
                 if !room {
+                    if purpose == Purpose::Prefetch {
+                        self.stats.prefetch_noroom += 1;
+                    }
                     return Err(LoadError::NoRoom);
                 }
                 // Reserve first: bytes being loaded count against the budget.
@@ -526,6 +550,7 @@ impl Loader {
             // wait for the fetch command. (A longer read is preempted and
             // goes on later.)
             self.wait_fetch = true;
+            self.stats.prefetch_waits += 1;
             return;
         }
         let Some((o, depth)) = self.classes.bins.pop() else {

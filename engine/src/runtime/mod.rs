@@ -277,14 +277,21 @@ enum Cmd {
     Shutdown,
 }
 
+/// Draw `rep` for front rep `for_rep` (an ancestor when they differ).
+struct Draw {
+    rep: RepId,
+    for_rep: RepId,
+    payload: Arc<[u8]>,
+}
+
 /// P_I → P_R.
 enum Reply {
-    /// Draw `rep` for front rep `for_rep` (an ancestor when they differ).
-    Draw {
-        rep: RepId,
-        for_rep: RepId,
-        payload: Arc<[u8]>,
-    },
+    /// The front reps already resident, in one message: P_I goes on to the
+    /// missing ones (and, after Stage II, to prefetching) while P_R draws
+    /// them, instead of waiting on the channel for P_R to take them one by
+    /// one.
+    Draws(Vec<Draw>),
+    Draw(Draw),
     /// Nothing resident can stand in for `for_rep` (only without a root rep).
     Missing,
     /// P_I evicted these reps (sent before any later `Draw`).
@@ -488,41 +495,13 @@ impl Walkthrough {
                 }
             };
             match reply {
-                Reply::Draw {
-                    rep,
-                    for_rep,
-                    payload,
-                } => {
-                    let rec = &self.skeleton.reps[rep as usize];
-                    if rec.is_vdt() {
-                        let before = tf.tris;
-                        if self.trees.draw(
-                            rep,
-                            &payload,
-                            &view,
-                            self.params.tolerance_px,
-                            renderer,
-                            &mut tf,
-                        ) {
-                            m.drawn_reps += 1;
-                            m.drawn_tris += tf.tris - before;
-                        } else {
-                            m.substituted += 1;
-                            unusable.push(rep);
-                        }
-                        continue;
+                Reply::Draws(ds) => {
+                    for d in ds {
+                        self.draw(d, &view, stamp, renderer, (&mut m, &mut tf), &mut unusable);
                     }
-                    if rep == for_rep {
-                        m.drawn_reps += 1;
-                    } else {
-                        m.substituted += 1;
-                    }
-                    if self.drawn_stamp[rep as usize] != stamp {
-                        self.drawn_stamp[rep as usize] = stamp;
-                        let rec = &self.skeleton.reps[rep as usize];
-                        m.drawn_tris += u64::from(rec.tri_count);
-                        renderer.draw(rep, rec, &payload, rep != for_rep);
-                    }
+                }
+                Reply::Draw(d) => {
+                    self.draw(d, &view, stamp, renderer, (&mut m, &mut tf), &mut unusable);
                 }
                 Reply::Missing => m.substituted += 1,
                 Reply::Evicted(reps) => {
@@ -553,6 +532,49 @@ impl Walkthrough {
         m.loader = stats;
         m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
         Ok(m)
+    }
+
+    /// Draws one rep P_I handed over: a view-dependence tree refined for
+    /// `view`, or a static rep once per frame (`stamp`).
+    fn draw(
+        &mut self,
+        d: Draw,
+        view: &View,
+        stamp: u32,
+        renderer: &mut dyn Renderer,
+        (m, tf): (&mut FrameMetrics, &mut trees::TreeFrame),
+        unusable: &mut Vec<RepId>,
+    ) {
+        let Draw {
+            rep,
+            for_rep,
+            payload,
+        } = d;
+        let rec = &self.skeleton.reps[rep as usize];
+        if rec.is_vdt() {
+            let before = tf.tris;
+            if self
+                .trees
+                .draw(rep, &payload, view, self.params.tolerance_px, renderer, tf)
+            {
+                m.drawn_reps += 1;
+                m.drawn_tris += tf.tris - before;
+            } else {
+                m.substituted += 1;
+                unusable.push(rep);
+            }
+            return;
+        }
+        if rep == for_rep {
+            m.drawn_reps += 1;
+        } else {
+            m.substituted += 1;
+        }
+        if self.drawn_stamp[rep as usize] != stamp {
+            self.drawn_stamp[rep as usize] = stamp;
+            m.drawn_tris += u64::from(rec.tri_count);
+            renderer.draw(rep, rec, &payload, rep != for_rep);
+        }
     }
 }
 

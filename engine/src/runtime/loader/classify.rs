@@ -24,8 +24,9 @@ pub(super) struct Classifier {
     own: Option<Frustum>,
     theta0: f32,
     theta1: f32,
-    /// The last F_I front.
+    /// The last F_I front, and the all-around front (scratch).
     front: Vec<RepId>,
+    all: Vec<RepId>,
 }
 
 impl Classifier {
@@ -41,6 +42,7 @@ impl Classifier {
             theta0: 0.0,
             theta1: 1.0,
             front: Vec::new(),
+            all: Vec::new(),
         }
     }
 
@@ -65,30 +67,28 @@ impl Classifier {
             .min(p.max_margin_deg)
             .to_radians();
         let mut front = std::mem::take(&mut self.front);
+        let enlarged = view.frustum(margin);
+        plan.index
+            .compute(view, &enlarged, plan.params.tolerance_px, &mut front);
         // All around when the all-around front fits the footprint; if it
-        // does not, F_I's front is its part in F_I.
+        // does not, F_I's front is its part in F_I. The all-around front
+        // holds F_I's (the same cut, less culling): when F_I's does not
+        // fit, the all-around one is not computed.
         let fit = f64::from(p.all_around_fit) * plan.params.budget_bytes as f64;
-        let have_all_around = fit > 0.0 && margin < std::f32::consts::FRAC_PI_2;
-        if have_all_around {
-            let f = view.frustum(std::f32::consts::PI);
+        let bytes = |f: &[RepId]| f.iter().map(|&r| res.cost(r)).sum::<u64>() as f64;
+        if fit > 0.0 && margin < std::f32::consts::FRAC_PI_2 && bytes(&front) <= fit {
+            let all = view.frustum(std::f32::consts::PI);
             plan.index
-                .compute(view, &f, plan.params.tolerance_px, &mut front);
-            let bytes: u64 = front.iter().map(|&r| res.cost(r)).sum();
-            if bytes as f64 <= fit {
+                .compute(view, &all, plan.params.tolerance_px, &mut self.all);
+            if bytes(&self.all) <= fit {
                 margin = std::f32::consts::PI;
+                std::mem::swap(&mut front, &mut self.all);
             }
         }
-        let enlarged = view.frustum(margin);
         let own = view.frustum(0.0);
         self.theta0 = own.half_angle;
         self.own = Some(own);
         self.theta1 = margin.max(1e-3);
-        if !have_all_around {
-            plan.index
-                .compute(view, &enlarged, plan.params.tolerance_px, &mut front);
-        } else if margin < std::f32::consts::FRAC_PI_2 {
-            plan.index.restrict(plan.skeleton, &enlarged, &mut front);
-        }
         for &r in &front {
             self.classify(plan, r, 0, r);
         }

@@ -194,3 +194,37 @@ fn the_lookahead_serves_the_parts_the_motion_reaches_first() {
         queued.len()
     );
 }
+
+#[test]
+fn f_i_is_all_around_only_when_the_all_around_front_fits() {
+    let s = row();
+    let view = |p: &RuntimeParams| p.view(&pose_at(12.0));
+    let bytes: u64 = s.reps[1..].iter().map(|r| u64::from(r.len)).sum();
+    // A footprint that holds every part: all around the eye.
+    let mut p = params();
+    p.prefetch.all_around_fit = 1.0;
+    p.budget_bytes = bytes * 2;
+    let (index, res, mut c) = setup(&s, &p);
+    let plan = Plan::of(&s, &index, &p);
+    let (front, margin) = c.classify_front(&plan, &res, &view(&p), 0.0).unwrap();
+    assert_eq!(margin, std::f32::consts::PI);
+    assert_eq!(front.len(), 24, "every part");
+    // One that holds a few parts: F_I, the view widened by the margin,
+    // which is the all-around front restricted to F_I.
+    p.budget_bytes = u64::from(s.reps[1].len) * 8;
+    let (index, res, mut c) = setup(&s, &p);
+    let plan = Plan::of(&s, &index, &p);
+    let (front, margin) = c.classify_front(&plan, &res, &view(&p), 0.0).unwrap();
+    let front = front.to_vec();
+    assert!(margin < 1.0 && front.len() < 24, "{margin} {}", front.len());
+    let mut all = Vec::new();
+    let v = view(&p);
+    index.compute(
+        &v,
+        &v.frustum(std::f32::consts::PI),
+        p.tolerance_px,
+        &mut all,
+    );
+    index.restrict(&s, &v.frustum(margin), &mut all);
+    assert_eq!(front, all);
+}

@@ -333,6 +333,7 @@ impl Loader {
             }
             if !self.first_block_in_time(r) {
                 self.wait_fetch = true;
+                self.stats.prefetch_waits += 1;
                 return true;
             }
             queue(self).at += 1;
