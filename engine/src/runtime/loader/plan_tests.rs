@@ -115,20 +115,18 @@ fn the_lookahead_serves_the_parts_the_motion_reaches_first() {
     let view = p.view(&pose_at(5.0));
     let (_, margin) = c.classify_front(&plan, &res, &view, 0.0).unwrap();
     let clock = ManualClock::new();
+    // Plans `a` for `view` on `clock`; `stop` says a fetch command waits.
+    let mut plan_with = |a: &mut Lookahead,
+                         res: &mut ResidentSet,
+                         clock: &dyn Clock,
+                         stop: &mut dyn FnMut() -> bool| {
+        a.plan(&plan, res, &failed, &mut c, &view, margin, clock, stop)
+    };
     let mut stops = 0;
-    ahead.plan(
-        &plan,
-        &mut res,
-        &failed,
-        &mut c,
-        &view,
-        margin,
-        &clock,
-        &mut || {
-            stops += 1;
-            true
-        },
-    );
+    plan_with(&mut ahead, &mut res, &clock, &mut || {
+        stops += 1;
+        true
+    });
     assert_eq!(stops, 0, "the clock did not move: the whole plan is made");
     let queued = ahead.queue.reps.clone();
     let x = xs(&s, &queued);
@@ -136,39 +134,17 @@ fn the_lookahead_serves_the_parts_the_motion_reaches_first() {
     assert!(x.iter().any(|&v| v >= 9), "{x:?}");
     let first_behind = x.iter().position(|&v| v < 4).unwrap_or(x.len());
     assert!(x[..first_behind].iter().all(|&v| v >= 4), "{x:?}");
-    assert!(queued.iter().all(|&r| c.is_queued(r)));
     // At rest there is nothing ahead.
     let mut still = Lookahead::default();
     still.observe(&pose_at(5.0));
     still.observe(&pose_at(5.0));
-    still.plan(
-        &plan,
-        &mut res,
-        &failed,
-        &mut c,
-        &view,
-        margin,
-        &clock,
-        &mut || true,
-    );
+    plan_with(&mut still, &mut res, &clock, &mut || true);
     assert!(still.queue.reps.is_empty());
     // A resident part is touched, not queued.
     res.reserve(res.cost(queued[0]));
-    res.insert(
-        queued[0],
-        vec![0u8; s.reps[queued[0] as usize].len as usize].into(),
-        false,
-    );
-    ahead.plan(
-        &plan,
-        &mut res,
-        &failed,
-        &mut c,
-        &view,
-        margin,
-        &clock,
-        &mut || true,
-    );
+    let len = s.reps[queued[0] as usize].len as usize;
+    res.insert(queued[0], vec![0u8; len].into(), false);
+    plan_with(&mut ahead, &mut res, &clock, &mut || true);
     assert!(!ahead.queue.reps.contains(&queued[0]));
     // A clock past the planning budget and a waiting fetch command stop the
     // plan after the first frame ahead.
@@ -177,22 +153,14 @@ fn the_lookahead_serves_the_parts_the_motion_reaches_first() {
         reads: AtomicU32::new(0),
         step: Duration::from_millis(2),
     };
-    ahead.plan(
-        &plan,
-        &mut res,
-        &failed,
-        &mut c,
-        &view,
-        margin,
-        &ticking,
-        &mut || true,
-    );
+    plan_with(&mut ahead, &mut res, &ticking, &mut || true);
     let short = ahead.queue.reps.len();
     assert!(
         short > 0 && short < queued.len() - 1,
         "{short} of {}",
         queued.len()
-    );
+    ); // What the plans queued are candidates of the classification.
+    assert!(queued.iter().all(|&r| c.is_queued(r)));
 }
 
 #[test]
