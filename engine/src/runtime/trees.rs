@@ -61,8 +61,10 @@ pub(super) fn plan_pools(skeleton: &Skeleton, source: &dyn ByteSource, wanted: u
 /// drawn instead).
 #[derive(Debug, thiserror::Error)]
 enum TreeError {
-    #[error("header and root records disagree with the rep record")]
+    #[error("its header is longer than its rep record")]
     Header,
+    #[error("its header and root records disagree with the rep record")]
+    Roots,
     #[error(transparent)]
     Io(#[from] std::io::Error),
     #[error(transparent)]
@@ -85,7 +87,7 @@ fn plan_one(source: &dyn ByteSource, rec: &RepRecord, wanted: u64) -> Result<u64
     let prefix = read(112 + roots * 32)?;
     let (h, root_bytes) = VdtHeader::with_root_bytes(&prefix)
         .filter(|(h, _)| h.root_count > 0 && h.data_offset <= u64::from(rec.len))
-        .ok_or(TreeError::Header)?;
+        .ok_or(TreeError::Roots)?;
     Ok(h.data_offset + h.holder_need(root_bytes).max(wanted.min(h.data_len)))
 }
 
