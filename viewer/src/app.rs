@@ -27,8 +27,6 @@ use crate::session::{Session, Settings};
 use crate::ui::{self, Sample, UiState};
 
 /// Frames kept for the overlay's plots.
-/// At most this many frames a screenshot waits for the overlay.
-const MAX_SHOT_WAITS: u32 = 30;
 const HISTORY: usize = 300;
 
 /// Runs the viewer until the window closes or `--exit-after` frames.
@@ -95,7 +93,6 @@ struct App {
     loop_csv: Option<CsvStream>,
     frames: u64,
     last: Instant,
-    screenshot_to: Option<PathBuf>,
     fatal: Option<anyhow::Error>,
     /// The last scene that failed to open, while no other has opened since:
     /// the exit status says so (a script cannot read the overlay).
@@ -118,10 +115,7 @@ struct App {
     failed_at: Option<u64>,
     /// The pose the selection's highlight was last drawn for.
     highlight_pose: Option<Pose>,
-    /// Frames a screenshot has waited for the overlay to settle, and
-    /// whether `--screenshot` has been taken for `--exit-when-complete`.
-    shot_waits: u32,
-    exit_shot_taken: bool,
+    shots: frame::Shots,
 }
 
 impl App {
@@ -158,7 +152,6 @@ impl App {
             loop_csv: None,
             frames: 0,
             last: Instant::now(),
-            screenshot_to: None,
             fatal: None,
             open_failed: None,
             ui_due: Instant::now(),
@@ -172,8 +165,7 @@ impl App {
             complete: None,
             failed_at: None,
             highlight_pose: None,
-            shot_waits: 0,
-            exit_shot_taken: false,
+            shots: frame::Shots::default(),
         }
     }
 
@@ -287,7 +279,7 @@ impl App {
             KeyCode::Home => self.frame_all(),
             KeyCode::KeyF => self.ui.frozen = !self.ui.frozen,
             KeyCode::KeyR => self.toggle_record(),
-            KeyCode::F12 => self.screenshot_to = Some(self.next_shot_name()),
+            KeyCode::F12 => self.shots.pending = Some(self.next_shot_name()),
             _ => {}
         }
     }
@@ -385,11 +377,21 @@ impl App {
         }
         // A failure ends `--exit-when-complete` a few frames later, once its
         // panel has been painted.
-        let mut exiting = self.args.exit_after.is_some_and(|n| self.frames + 1 >= n)
-            || (self.args.exit_when_complete
-                && self.failed_at.is_some_and(|f| self.frames >= f + 3));
+        let mut exiting = self.args.exit_after.is_some_and(|n| self.frames + 1 >= n);
+        if self.args.exit_when_complete && self.failed_at.is_some_and(|f| self.frames >= f + 3) {
+            // The screenshot, when one is asked for, is taken first, once
+            // the error panel has faded in.
+            match &self.args.screenshot {
+                Some(p) if !self.shots.exit_taken => {
+                    if self.shots.pending.is_none() {
+                        self.shots.pending = Some(p.clone());
+                    }
+                }
+                _ => exiting = true,
+            }
+        }
         let refresh =
-            self.ui_dirty || now >= self.ui_due || exiting || self.screenshot_to.is_some();
+            self.ui_dirty || now >= self.ui_due || exiting || self.shots.pending.is_some();
         if !self.args.no_overlay && refresh {
             self.ui_dirty = false;
             let hz = if self.args.overlay_hz > 0.0 {
@@ -447,24 +449,11 @@ impl App {
             gfx.blit(s.renderer.target_texture(), &frame.texture.texture);
         }
         let mut problems: Vec<String> = Vec::new();
-        if exiting && let Some(p) = &self.args.screenshot {
-            self.screenshot_to = Some(p.clone());
-        }
-        // A screenshot waits (a few frames at most) until the overlay has
-        // settled: a new window is invisible in its first pass and fades in
-        // over the next, and egui asks for another pass at once until then.
-        if self.screenshot_to.is_some()
-            && !exiting
-            && !self.args.no_overlay
-            && self.ui_dirty
-            && self.shot_waits < MAX_SHOT_WAITS
+        let ui_dirty = self.ui_dirty && !self.args.no_overlay;
+        if let Some(to) = self
+            .shots
+            .due(now, exiting, ui_dirty, self.args.screenshot.as_ref())
         {
-            self.shot_waits += 1;
-        } else if let Some(to) = self.screenshot_to.take() {
-            self.shot_waits = 0;
-            if self.args.screenshot.as_ref() == Some(&to) {
-                self.exit_shot_taken = true;
-            }
             let img = match &self.session {
                 Some(s) if offscreen => s.renderer.read_texture(s.renderer.target_texture()),
                 _ if gfx.copy_src => engine_gpu::read_texture(&gfx.ctx, &frame.texture.texture),
@@ -494,9 +483,9 @@ impl App {
             {
                 match &self.args.screenshot {
                     // Once more, so that the screenshot shows the pick.
-                    Some(p) if !self.exit_shot_taken => {
-                        if self.screenshot_to.is_none() {
-                            self.screenshot_to = Some(p.clone());
+                    Some(p) if !self.shots.exit_taken => {
+                        if self.shots.pending.is_none() {
+                            self.shots.pending = Some(p.clone());
                         }
                     }
                     _ => exiting = true,
@@ -544,7 +533,7 @@ impl App {
             self.toggle_record();
         }
         if a.screenshot {
-            self.screenshot_to = Some(self.next_shot_name());
+            self.shots.pending = Some(self.next_shot_name());
         }
         if a.frame_all {
             self.frame_all();

@@ -1,13 +1,69 @@
 //! Per frame, after drawing: whether the view is complete (and the first
-//! complete frame), `--pick` and clicks, and the `--csv` streams.
+//! complete frame), `--pick` and clicks, screenshots, and the `--csv` streams.
 
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use engine::camera::Pose;
 use engine::metrics::CsvStream;
 
 use super::App;
+
+/// At most this many frames, and this long, a screenshot waits for the
+/// overlay to settle (egui's fades run on the wall clock, so a run of fast
+/// frames alone is not enough).
+const MAX_SHOT_WAITS: u32 = 120;
+const MAX_SHOT_WAIT: Duration = Duration::from_secs(2);
+
+/// Screenshots asked for (F12, the button, `--screenshot`) and how long the
+/// pending one has waited.
+#[derive(Default)]
+pub(super) struct Shots {
+    pub pending: Option<PathBuf>,
+    waits: u32,
+    since: Option<Instant>,
+    /// Whether `--screenshot` has been taken (for `--exit-when-complete`).
+    pub exit_taken: bool,
+}
+
+impl Shots {
+    /// The screenshot to take this frame, if one is due: `--screenshot` on
+    /// exit, or one asked for earlier. It waits until the overlay has
+    /// settled (`ui_dirty` clear): a new window is invisible in its first
+    /// pass and fades in over the next, and egui asks for another pass at
+    /// once until then.
+    pub fn due(
+        &mut self,
+        now: Instant,
+        exiting: bool,
+        ui_dirty: bool,
+        exit_shot: Option<&PathBuf>,
+    ) -> Option<PathBuf> {
+        if exiting
+            && !self.exit_taken
+            && let Some(p) = exit_shot
+        {
+            self.pending = Some(p.clone());
+        }
+        self.pending.as_ref()?;
+        if !exiting
+            && ui_dirty
+            && self.waits < MAX_SHOT_WAITS
+            && now.duration_since(*self.since.get_or_insert(now)) < MAX_SHOT_WAIT
+        {
+            self.waits += 1;
+            return None;
+        }
+        let to = self.pending.take()?;
+        self.waits = 0;
+        self.since = None;
+        if exit_shot == Some(&to) {
+            self.exit_taken = true;
+        }
+        Some(to)
+    }
+}
 
 impl App {
     /// Tracks completeness, the first complete frame and `--pick`.
@@ -91,5 +147,39 @@ impl App {
             l.line(&format!("{},{loop_ms:.3}", m.frame))?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_screenshot_waits_for_the_overlay_but_not_forever() {
+        let t0 = Instant::now();
+        let mut s = Shots {
+            pending: Some("a.png".into()),
+            ..Shots::default()
+        };
+        // The overlay is still fading in: it waits, however fast the frames.
+        for i in 0..10 {
+            assert_eq!(
+                s.due(t0 + Duration::from_millis(i), false, true, None),
+                None
+            );
+        }
+        // Settled: taken once.
+        assert_eq!(s.due(t0, false, false, None), Some("a.png".into()));
+        assert_eq!(s.due(t0, false, false, None), None);
+        // An overlay that never settles delays it by two seconds at most.
+        s.pending = Some("b.png".into());
+        assert_eq!(s.due(t0, false, true, None), None);
+        let late = t0 + MAX_SHOT_WAIT;
+        assert_eq!(s.due(late, false, true, None), Some("b.png".into()));
+        // On exit `--screenshot` is taken at once, and only once.
+        let exit: PathBuf = "exit.png".into();
+        assert_eq!(s.due(t0, true, true, Some(&exit)), Some(exit.clone()));
+        assert!(s.exit_taken);
+        assert_eq!(s.due(t0, true, true, Some(&exit)), None);
     }
 }
