@@ -254,6 +254,9 @@ frame_metrics! {
         loader.idle_ms: f64 => sum,
         /// Of `classify_ms`: the lookahead's fronts.
         loader.lookahead_ms: f64 => sum,
+        /// The longest gap P_I reads through rather than seeking over (learnt
+        /// from its reads), at the end of the frame's Stage II.
+        loader.coalesce_gap: u32 => max,
     }
 }
 
@@ -519,7 +522,7 @@ mod tests {
         // the column list generated them (P_I's counters among P_R's).
         assert_eq!(
             CSV_HEADER,
-            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms,prefetch_noroom,prefetch_waits,idle_ms,lookahead_ms"
+            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms,prefetch_noroom,prefetch_waits,idle_ms,lookahead_ms,coalesce_gap"
         );
         let f = FrameMetrics {
             frame: 7,
@@ -537,7 +540,7 @@ mod tests {
             row.starts_with("7,pre,12.346,0.000,0.000,0,0,0,0,4096,"),
             "{row}"
         );
-        assert!(row.ends_with(",0,0,0.500,0,0,0.000,0.000"), "{row}");
+        assert!(row.ends_with(",0,0,0.500,0,0,0.000,0.000,0"), "{row}");
     }
 
     #[test]

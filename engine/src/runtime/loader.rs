@@ -385,6 +385,7 @@ impl Loader {
         }
         self.stats.resident_bytes = self.res.bytes();
         self.stats.prefetch_queue = self.classes.bins.len() as u32;
+        self.stats.coalesce_gap = u32::try_from(self.max_gap()).unwrap_or(u32::MAX);
         #[cfg(debug_assertions)]
         if let Err(e) = self.res.validate() {
             panic!("P_I's resident set is inconsistent: {e}");

@@ -13,13 +13,16 @@
 //! turning).
 //!
 //! On a slow disk P_I reads only a few reps a frame, so the order is what
-//! counts. P_I computes the view fronts (F_R, no margin) of each of the
-//! `lookahead_frames` viewpoints ahead and serves their reps by the frame
-//! that first draws them, nearest first; then the F_I fronts of the
-//! viewpoints `lookahead_frames / 3` and `lookahead_frames` ahead; each
-//! group in the order of the angle to the line of sight, all before the
-//! bins. A fetch command waiting after P_I has computed these fronts for a
-//! millisecond stops it there (on a 250K-node skeleton they take several).
+//! counts. P_I computes the view fronts (F_R, no margin) of viewpoints up
+//! to `lookahead_frames` ahead (each of the first three frames, then ever
+//! sparser: 1, 2, 3, 5, 8, 10 for 10) and serves their reps by the frame
+//! that first draws them, nearest first, each front's in file order (the
+//! fewest seeks: a sudden turn reveals a thousand reps a frame); then the
+//! F_I fronts of the viewpoints `lookahead_frames / 3` and
+//! `lookahead_frames` ahead, in the order of the angle to the line of
+//! sight, all before the bins. A fetch command waiting after P_I has
+//! computed these fronts for a millisecond stops it there (on a 250K-node
+//! skeleton they take several).
 //! (Served by angle alone, a large object beside the path, whose box
 //! centre is far off the line of sight, came after hundreds of F_I reps
 //! that the view would not reach for seconds, and was missed.) The resident
@@ -106,10 +109,10 @@ impl Lookahead {
         };
         let started = clock.now();
         let mut front = std::mem::take(&mut self.front);
-        let mut keyed: Vec<(u32, u32, RepId)> = Vec::new();
+        let mut keyed: Vec<(u32, u64, RepId)> = Vec::new();
         // First the view fronts (F_R) of each frame ahead, nearest first:
         // what the motion will draw next; then F_I's fronts at two horizons.
-        let mut passes: Vec<(u32, f32)> = (1..=k).map(|f| (f, 0.0)).collect();
+        let mut passes: Vec<(u32, f32)> = view_horizons(k).map(|f| (f, 0.0)).collect();
         passes.push(((k / 3).max(1), margin));
         if k > (k / 3).max(1) {
             passes.push((k, margin));
@@ -138,9 +141,16 @@ impl Lookahead {
                     continue;
                 }
                 classes.queue(r);
-                let (mn, mx) = plan.index.node_box(plan.skeleton.reps[r as usize].node);
-                let angle = own.angle_to_box(mn, mx);
-                keyed.push((stage as u32, angle.to_bits(), r));
+                let rec = &plan.skeleton.reps[r as usize];
+                let key = if m == 0.0 {
+                    // A view front's reps are all drawn by its frame: in
+                    // file order they are read with the fewest seeks.
+                    rec.offset
+                } else {
+                    let (mn, mx) = plan.index.node_box(rec.node);
+                    u64::from(own.angle_to_box(mn, mx).to_bits())
+                };
+                keyed.push((stage as u32, key, r));
             }
         }
         // Angles are non-negative: their bits order as the values do. A rep
@@ -151,6 +161,27 @@ impl Lookahead {
         self.queue.reps.extend(keyed.into_iter().map(|(_, _, r)| r));
         self.front = front;
     }
+}
+
+/// The frames ahead whose view fronts are computed, up to `k`: every one
+/// of the first three, then each half as far again as the last (1, 2, 3,
+/// 5, 8, 12, …), and `k`. A rep first drawn between two of them is in the
+/// later one's front (a front changes little from one frame to the next),
+/// and the fronts far ahead cost as much as the near ones.
+fn view_horizons(k: u32) -> impl Iterator<Item = u32> {
+    let mut next = 1;
+    std::iter::from_fn(move || {
+        if next > k {
+            return None;
+        }
+        let f = next;
+        next = if f == k {
+            k + 1
+        } else {
+            (f + f.div_ceil(2)).min(k)
+        };
+        Some(f)
+    })
 }
 
 /// The rotation `spin` (per frame) continued for `frames` frames, at most
@@ -174,4 +205,19 @@ fn spin(prev: Option<Quat>, now: Quat) -> Quat {
 /// The camera's motion per frame: from the previous position to `now`.
 fn motion(prev: Option<Vec3>, now: Vec3) -> Vec3 {
     prev.map_or(Vec3::ZERO, |p| now - p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::view_horizons;
+
+    #[test]
+    fn view_horizons_thin_out_with_distance_and_end_at_k() {
+        let h = |k| view_horizons(k).collect::<Vec<_>>();
+        assert_eq!(h(10), [1, 2, 3, 5, 8, 10]);
+        assert_eq!(h(3), [1, 2, 3]);
+        assert_eq!(h(1), [1]);
+        assert!(h(0).is_empty());
+        assert_eq!(h(40), [1, 2, 3, 5, 8, 12, 18, 27, 40]);
+    }
 }

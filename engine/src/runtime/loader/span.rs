@@ -25,8 +25,11 @@ pub(super) struct IoCosts {
     /// A decaying maximum of the time of a read that seeks (the estimate of
     /// a first block until seek and transfer costs are learnt).
     pub(super) first_block_s: f64,
-    /// A moving average of seconds per byte of reads that do not seek.
+    /// Seconds per byte and per read of reads that do not seek: the line
+    /// `overhead_s + bytes * per_byte_s` fitted to them ([`SeqFit`]).
     pub(super) per_byte_s: f64,
+    pub(super) overhead_s: f64,
+    seq: SeqFit,
     /// A moving average of the seek time (a seeking read less its transfer).
     pub(super) seek_s: f64,
     /// A decaying maximum of the seek time (learnt once the transfer rate
@@ -34,6 +37,52 @@ pub(super) struct IoCosts {
     pub(super) seek_max_s: f64,
     /// Where P_I's last read ended.
     last_end: Option<u64>,
+}
+
+/// Decayed sums over the reads that do not seek — count, bytes, seconds,
+/// bytes², bytes × seconds — for a least-squares line `t = a + b · bytes`.
+/// A read's fixed cost (the system call, the clock, the throttle's wake-up)
+/// is `a`: averaged into a rate per byte, the many small reads (a coarse LOD
+/// of a small part is a few hundred bytes) made a byte look ten times
+/// dearer than it is, and the break-even gap of read coalescing shrank to
+/// nothing.
+#[derive(Clone, Debug, Default)]
+struct SeqFit {
+    sums: [f64; 5],
+}
+
+impl SeqFit {
+    /// Each read's weight decays by this factor per read after it.
+    const DECAY: f64 = 0.98;
+
+    fn observe(&mut self, bytes: f64, t: f64) {
+        for (s, x) in self
+            .sums
+            .iter_mut()
+            .zip([1.0, bytes, t, bytes * bytes, bytes * t])
+        {
+            *s = *s * Self::DECAY + x;
+        }
+    }
+
+    /// `(a, b)`: the fitted cost per read and per byte (`a = 0` when the
+    /// reads are too alike in size to tell them apart, or the fit is not
+    /// physical).
+    fn fit(&self) -> (f64, f64) {
+        let [c, n, t, nn, nt] = self.sums;
+        if n <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let var = c * nn - n * n;
+        if c >= 4.0 && var > 1e-3 * c * nn {
+            let b = (c * nt - n * t) / var;
+            let a = (t - b * n) / c;
+            if b > 0.0 && a >= 0.0 && b.is_finite() && a.is_finite() {
+                return (a, b);
+            }
+        }
+        (0.0, t / n)
+    }
 }
 
 impl IoCosts {
@@ -44,18 +93,14 @@ impl IoCosts {
         let t = took.as_secs_f64();
         if self.last_end == Some(offset) {
             if bytes > 0 {
-                let x = t / bytes as f64;
-                if self.per_byte_s > 0.0 {
-                    self.per_byte_s += Self::A * (x - self.per_byte_s);
-                } else {
-                    self.per_byte_s = x;
-                }
+                self.seq.observe(bytes as f64, t);
+                (self.overhead_s, self.per_byte_s) = self.seq.fit();
             }
         } else {
             // A decaying maximum: a seek may come with any read, and a
             // prefetch still running when the fetch command arrives stalls P_R.
             self.first_block_s = t.max(self.first_block_s * 0.995);
-            let seek = (t - bytes as f64 * self.per_byte_s).max(0.0);
+            let seek = (t - self.overhead_s - bytes as f64 * self.per_byte_s).max(0.0);
             if self.per_byte_s > 0.0 {
                 // Until a transfer rate is known a read's transfer would
                 // count as seek time, and a large one would hold the
@@ -87,7 +132,7 @@ impl IoCosts {
             self.seek_max_s
         };
         // A 3 % margin for the jitter of the clock and the disk.
-        (seek + bytes.min(block) as f64 * self.per_byte_s) * 1.03
+        (seek + self.overhead_s + bytes.min(block) as f64 * self.per_byte_s) * 1.03
     }
 
     /// Where P_I's last read ended (the next read there does not seek).
@@ -309,7 +354,7 @@ impl Loader {
 
     /// The same for `len` bytes read on from where the last read ended.
     pub(super) fn fits_in_frame_sequential(&self, len: u64) -> bool {
-        self.ends_in_time(len as f64 * self.costs.per_byte_s)
+        self.ends_in_time(self.costs.overhead_s + len as f64 * self.costs.per_byte_s)
     }
 
     pub(super) fn ends_in_time(&self, need_s: f64) -> bool {
@@ -438,6 +483,27 @@ mod tests {
         );
         let capped = 1.03 * (10.0 + 65_536.0 / 30_000.0);
         assert!((est(end + 1, 1 << 20) - capped).abs() < 0.05);
+        // Small reads with a fixed cost each: an SSD (0.1 ms seeks, 500 MB/s)
+        // whose reads also cost 20 µs apiece. The break-even gap is the
+        // seek's worth of transfer, 50 KB, not the seek over the small
+        // reads' inflated cost per byte.
+        let mut c = IoCosts::default();
+        let cost = |n: f64, seek: bool| ms(0.02 + n / 500e3 + if seek { 0.1 } else { 0.0 });
+        let mut at = 0u64;
+        for i in 0..200u64 {
+            let n = [300u64, 2_000, 5_000, 60_000][i as usize % 4];
+            at += 10_000_000;
+            c.observe(at, n as usize, cost(n as f64, true));
+            c.observe(at + n, n as usize, cost(n as f64, false));
+        }
+        assert!((c.overhead_s - 20e-6).abs() < 1e-6, "{}", c.overhead_s);
+        assert!(
+            (c.per_byte_s * 500e6 - 1.0).abs() < 0.01,
+            "{}",
+            c.per_byte_s
+        );
+        let g = c.max_gap(1 << 20, 4096);
+        assert!((48_000..52_000).contains(&g), "{g}");
         // Until costs are known: the slowest seeking read seen.
         let fresh = IoCosts::default();
         assert_eq!(fresh.first_block_estimate(0, 100, 65_536), 0.0);

@@ -104,6 +104,7 @@ pub fn bounds(
             gap >> 10,
             fronts.len() as f64 / f64::from(fps.max(1e-3))
         );
+        s.push_str(&new_per_frame(skel, &fronts, gap, seek, d.bytes_per_sec));
     }
     s.push_str(&all_around(
         skel, &index, poses, params, &fronts, budgets, disk,
@@ -281,6 +282,36 @@ fn around_of(index: &FrontIndex, params: &RuntimeParams, pose: &Pose) -> Vec<Rep
 
 /// `reps` (in file order) read as runs joined through gaps up to `gap`
 /// bytes: the number of runs and the bytes read, gaps included.
+/// The reps each frame draws that the previous one did not, read in file
+/// order with the same coalescing: how many runs (seeks) they take, over the
+/// path and in the busiest 1% of frames (the sudden turns).
+fn new_per_frame(skel: &Skeleton, fronts: &[Vec<RepId>], gap: u64, seek: f64, rate: f64) -> String {
+    let mut frames: Vec<(usize, u64, u64)> = Vec::new();
+    for w in fronts.windows(2) {
+        let prev: HashSet<RepId> = w[0].iter().copied().collect();
+        let mut new: Vec<RepId> = w[1].iter().copied().filter(|r| !prev.contains(r)).collect();
+        new.sort_unstable_by_key(|&r| skel.reps[r as usize].offset);
+        let (runs, read) = file_order_runs(skel, &new, gap);
+        frames.push((new.len(), runs, read));
+    }
+    frames.sort_unstable_by_key(|f| std::cmp::Reverse(f.0));
+    let sum = |f: &[(usize, u64, u64)]| {
+        f.iter().fold((0usize, 0u64, 0u64), |a, x| {
+            (a.0 + x.0, a.1 + x.1, a.2 + x.2)
+        })
+    };
+    let (n, runs, _) = sum(&frames);
+    let top = &frames[..frames.len().div_ceil(100).min(frames.len())];
+    let (tn, truns, tread) = sum(top);
+    format!(
+        "newly drawn reps, frame by frame: {n} in {runs} runs ({:.1} a run); in the busiest 1% of frames {:.0} a frame in {:.0} runs, {:.0} ms a frame at the disk model\n",
+        n as f64 / runs.max(1) as f64,
+        tn as f64 / top.len().max(1) as f64,
+        truns as f64 / top.len().max(1) as f64,
+        (truns as f64 * seek + tread as f64 / rate) * 1e3 / top.len().max(1) as f64
+    )
+}
+
 fn file_order_runs(skel: &Skeleton, reps: &[RepId], gap: u64) -> (u64, u64) {
     let (mut runs, mut read, mut end) = (0u64, 0u64, None::<u64>);
     for &r in reps {
