@@ -262,7 +262,7 @@ pub fn warm_page_cache(file: &std::fs::File) -> io::Result<u64> {
     use std::io::Read;
     #[cfg(target_os = "linux")]
     let _ = rustix::fs::fadvise(file, 0, None, rustix::fs::Advice::WillNeed);
-    let mut r = io::BufReader::with_capacity(4 << 20, file.try_clone()?);
+    let mut r = file;
     let mut buf = vec![0u8; 4 << 20];
     let mut n = 0u64;
     loop {

@@ -381,14 +381,7 @@ impl App {
         if self.args.exit_when_complete && self.failed_at.is_some_and(|f| self.frames >= f + 3) {
             // The screenshot, when one is asked for, is taken first, once
             // the error panel has faded in.
-            match &self.args.screenshot {
-                Some(p) if !self.shots.exit_taken => {
-                    if self.shots.pending.is_none() {
-                        self.shots.pending = Some(p.clone());
-                    }
-                }
-                _ => exiting = true,
-            }
+            exiting |= self.shots.ready_to_exit(self.args.screenshot.as_ref());
         }
         let refresh =
             self.ui_dirty || now >= self.ui_due || exiting || self.shots.pending.is_some();
@@ -481,15 +474,8 @@ impl App {
                 && self.complete_at.is_some_and(|f| self.frames > f)
                 && (self.args.pick.is_none() || self.picked)
             {
-                match &self.args.screenshot {
-                    // Once more, so that the screenshot shows the pick.
-                    Some(p) if !self.shots.exit_taken => {
-                        if self.shots.pending.is_none() {
-                            self.shots.pending = Some(p.clone());
-                        }
-                    }
-                    _ => exiting = true,
-                }
+                // Once more, so that the screenshot shows the pick.
+                exiting |= self.shots.ready_to_exit(self.args.screenshot.as_ref());
             }
         }
         if let Some(m) = metrics {

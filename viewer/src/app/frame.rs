@@ -28,6 +28,20 @@ pub(super) struct Shots {
 }
 
 impl Shots {
+    /// Whether a run that is done may exit now: once `--screenshot`
+    /// (`exit_shot`), if asked for, has been taken; until then it is queued.
+    pub fn ready_to_exit(&mut self, exit_shot: Option<&PathBuf>) -> bool {
+        match exit_shot {
+            Some(p) if !self.exit_taken => {
+                if self.pending.is_none() {
+                    self.pending = Some(p.clone());
+                }
+                false
+            }
+            _ => true,
+        }
+    }
+
     /// The screenshot to take this frame, if one is due: `--screenshot` on
     /// exit, or one asked for earlier. It waits until the overlay has
     /// settled (`ui_dirty` clear): a new window is invisible in its first
@@ -181,5 +195,12 @@ mod tests {
         assert_eq!(s.due(t0, true, true, Some(&exit)), Some(exit.clone()));
         assert!(s.exit_taken);
         assert_eq!(s.due(t0, true, true, Some(&exit)), None);
+        // A finished run queues `--screenshot` and exits once it is taken.
+        let mut s = Shots::default();
+        assert!(!s.ready_to_exit(Some(&exit)));
+        assert_eq!(s.pending, Some(exit.clone()));
+        assert_eq!(s.due(t0, false, false, Some(&exit)), Some(exit.clone()));
+        assert!(s.ready_to_exit(Some(&exit)));
+        assert!(Shots::default().ready_to_exit(None));
     }
 }
