@@ -71,6 +71,22 @@ impl From<LimitError> for io::Error {
     }
 }
 
+/// Refuses a buffer of `len` bytes for `what` that exceeds the machine's
+/// memory, before anything is allocated (for decoders that allocate
+/// themselves). The memory size is read once.
+pub fn check_alloc(len: u64, what: &str) -> Result<(), LimitError> {
+    static TOTAL: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    let limit = *TOTAL.get_or_init(memory_total);
+    if len > limit {
+        return Err(LimitError::TooLarge {
+            what: what.to_string(),
+            bytes: len,
+            limit,
+        });
+    }
+    Ok(())
+}
+
 /// A zeroed buffer of `len` bytes for `what`, refused when it exceeds the
 /// machine's memory and allocated fallibly (an error, not an abort).
 pub fn alloc_bytes(len: u64, what: &str) -> Result<Vec<u8>, LimitError> {

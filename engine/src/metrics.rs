@@ -257,6 +257,10 @@ frame_metrics! {
         /// The longest gap P_I reads through rather than seeking over (learnt
         /// from its reads), at the end of the frame's Stage II.
         loader.coalesce_gap: u32 => max,
+        /// P_I's time expanding compressed reps (meshopt's decoders) and
+        /// the bytes they expanded to, since the previous frame.
+        loader.expand_ms: f64 => sum,
+        loader.expanded_bytes: u64 => sum,
     }
 }
 
@@ -522,7 +526,7 @@ mod tests {
         // the column list generated them (P_I's counters among P_R's).
         assert_eq!(
             CSV_HEADER,
-            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms,prefetch_noroom,prefetch_waits,idle_ms,lookahead_ms,coalesce_gap"
+            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms,prefetch_noroom,prefetch_waits,idle_ms,lookahead_ms,coalesce_gap,expand_ms,expanded_bytes"
         );
         let f = FrameMetrics {
             frame: 7,
@@ -540,7 +544,10 @@ mod tests {
             row.starts_with("7,pre,12.346,0.000,0.000,0,0,0,0,4096,"),
             "{row}"
         );
-        assert!(row.ends_with(",0,0,0.500,0,0,0.000,0.000,0"), "{row}");
+        assert!(
+            row.ends_with(",0,0,0.500,0,0,0.000,0.000,0,0.000,0"),
+            "{row}"
+        );
     }
 
     #[test]

@@ -12,11 +12,19 @@ compile_error!("the scene format is little-endian and this engine reads it by ca
 /// File magic: the first eight bytes of every scene file.
 pub const MAGIC: [u8; 8] = *b"OOCHLOD\0";
 /// The format version this build writes (and the newest it reads).
-pub const VERSION: u32 = 2;
+/// Version 3 packs the reps on [`REP_ALIGN`] boundaries; versions 1 and 2
+/// padded every rep to a [`BLOCK`].
+pub const VERSION: u32 = 3;
 /// The oldest version this build reads (no origin, no object section).
 pub const OLDEST_VERSION: u32 = 1;
-/// Alignment of every rep payload and of the data section.
+/// Alignment of the data section, the skeleton section and of every
+/// view-dependence tree rep (whose pages are sized to it).
 pub const BLOCK: u64 = 4096;
+/// Alignment of a mesh rep's payload (version 3): reps of a few KB packed
+/// back to back, so that reading a run of them is one sequential read with
+/// no padding between (at this scale a 4 KiB pad per rep was a third of
+/// the file).
+pub const REP_ALIGN: u64 = 16;
 /// "No node / no object" marker in `u32` fields.
 pub const NONE: u32 = u32::MAX;
 
@@ -196,9 +204,12 @@ pub struct RepRecord {
     pub error: f32,
     /// CRC-32 of the payload bytes.
     pub checksum: u32,
-    /// Payload offset, a multiple of [`BLOCK`].
+    /// Payload offset: a multiple of [`REP_ALIGN`] (of [`BLOCK`] for a
+    /// view-dependence tree, and for every rep before version 3).
     pub offset: u64,
-    /// Payload length (without the padding to the next block).
+    /// Bytes stored (without padding). A mesh rep's payload may be
+    /// compressed (version 3): it is then shorter than the
+    /// [`RepRecord::resident_len`] it expands to.
     pub len: u32,
     pub tri_count: u32,
     pub vertex_count: u32,
@@ -212,6 +223,23 @@ impl RepRecord {
     /// The decoded kind, if the tag is known.
     pub fn rep_kind(&self) -> Option<RepKind> {
         RepKind::from_u16(self.kind)
+    }
+
+    /// Bytes the rep takes while resident: a mesh rep's expanded payload
+    /// ([`rep_payload_len`] of its counts, whether stored compressed or
+    /// not), a view-dependence tree's in-core part (`len`).
+    pub fn resident_len(&self) -> u64 {
+        if self.is_vdt() {
+            u64::from(self.len)
+        } else {
+            rep_payload_len(self.vertex_count as usize, self.tri_count as usize * 3) as u64
+        }
+    }
+
+    /// Bytes of the rep in core when all of it is loaded: its resident
+    /// payload, and a tree's paged part (what in-core mode holds).
+    pub fn expanded_extent(&self) -> u64 {
+        self.resident_len() + u64::from(self.aux)
     }
 
     /// Whether this rep is a view-dependence tree.

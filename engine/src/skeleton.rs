@@ -11,7 +11,9 @@
 //! A node without reps (allowed for interior nodes only) is transparent: PAR and
 //! CHD pass through it.
 
-use crate::records::{BLOCK, NONE, NodeRecord, RepKind, RepRecord, rep_payload_len};
+use crate::records::{
+    NONE, NodeRecord, REP_ALIGN, REP_HEADER_BYTES, RepKind, RepRecord, rep_payload_len,
+};
 
 /// Global index of an object-rep in the skeleton's rep table.
 pub type RepId = u32;
@@ -252,21 +254,23 @@ impl Skeleton {
                         )));
                     }
                 } else {
+                    // Stored raw (exactly `expect`) or compressed (shorter).
                     let expect = rep_payload_len(r.vertex_count as usize, r.tri_count as usize * 3);
-                    if r.len as usize != expect || r.aux != 0 {
+                    if (r.len as usize) < REP_HEADER_BYTES || r.len as usize > expect || r.aux != 0
+                    {
                         return Err(rep_err(format!(
-                            "length {}+{} but counts need {expect}",
+                            "length {}+{} but counts need {expect} (or less, compressed)",
                             r.len, r.aux
                         )));
                     }
                 }
                 let end = r.offset.checked_add(r.extent());
-                if !r.offset.is_multiple_of(BLOCK)
+                if !r.offset.is_multiple_of(REP_ALIGN)
                     || r.offset < data_start
                     || end.is_none_or(|e| e > data_end)
                 {
                     return Err(rep_err(format!(
-                        "byte range {}+{} not block-aligned inside {data_start}..{data_end}",
+                        "byte range {}+{} not {REP_ALIGN}-byte aligned inside {data_start}..{data_end}",
                         r.offset,
                         r.extent()
                     )));

@@ -28,6 +28,12 @@ pub fn build(rep_counts: &[u32], children: &[u32]) -> (Vec<u8>, Skeleton) {
     build_with(rep_counts, children, [0.0; 3], &[])
 }
 
+/// [`build`] with the mesh payloads compressed
+/// ([`RepMesh::encode_compressed`]).
+pub fn build_compressed(rep_counts: &[u32], children: &[u32]) -> (Vec<u8>, Skeleton) {
+    build_impl(rep_counts, children, [0.0; 3], &[], true)
+}
+
 /// [`build`] with an origin and an object section; when the section is not
 /// empty, leaf `k` names object `k`.
 pub fn build_with(
@@ -35,6 +41,16 @@ pub fn build_with(
     children: &[u32],
     origin: [f64; 3],
     objects: &[u8],
+) -> (Vec<u8>, Skeleton) {
+    build_impl(rep_counts, children, origin, objects, false)
+}
+
+fn build_impl(
+    rep_counts: &[u32],
+    children: &[u32],
+    origin: [f64; 3],
+    objects: &[u8],
+    compress: bool,
 ) -> (Vec<u8>, Skeleton) {
     assert_eq!(rep_counts.len(), children.len());
     let n = rep_counts.len();
@@ -88,7 +104,12 @@ pub fn build_with(
         nodes[i].rep_count = rep_counts[i];
         for r in 0..rep_counts[i] {
             let mesh = quad(nodes[i].bbox_min, nodes[i].bbox_max);
-            let loc = writer.write_rep(&mesh.encode(i as u32, r)).unwrap();
+            let payload = if compress {
+                mesh.encode_compressed(i as u32, r)
+            } else {
+                mesh.encode(i as u32, r)
+            };
+            let loc = writer.write_rep(&payload).unwrap();
             let kind = if nodes[i].child_count == 0 {
                 RepKind::Lod
             } else {

@@ -54,6 +54,9 @@ pub struct BuildParams {
     /// Reps on disk in the spatial layout (`layout`: selection band, then
     /// Morton order) rather than in the order they are made.
     pub spatial_layout: bool,
+    /// Mesh rep payloads through meshopt's vertex and index codecs (format
+    /// version 3), or raw (for comparison).
+    pub compress_reps: bool,
 }
 
 impl Default for BuildParams {
@@ -68,6 +71,7 @@ impl Default for BuildParams {
             vdt_tris: 0,
             vdt_keep: 2,
             spatial_layout: true,
+            compress_reps: true,
         }
     }
 }
@@ -256,7 +260,7 @@ fn build_scene_staged<W: Write + std::io::Seek>(
         })?;
     }
     progress.1("writing the spatial layout", stats.nodes, stats.nodes);
-    crate::layout::relayout(&staged, sink)?;
+    crate::layout::relayout(&staged, sink, crate::layout::Payloads::Keep)?;
     Ok(stats)
 }
 
@@ -412,7 +416,13 @@ fn build_in_make_order<W: Write + std::io::Seek>(
             } else {
                 n.flags |= NodeRecord::FLAG_MERGED;
             }
-            let (mut recs, c) = write_chain(&mut writer, i as u32, levels, RepKind::Lod, 0.0)?;
+            let (mut recs, c) = write_chain(
+                &mut writer,
+                i as u32,
+                levels,
+                (RepKind::Lod, params.compress_reps),
+                0.0,
+            )?;
             if let Some(t) = vdt {
                 stats.vdt_objects += 1;
                 recs.push(crate::vdt::write_rep(&mut writer, i as u32, &recs, &t)?);
@@ -462,8 +472,13 @@ fn build_in_make_order<W: Write + std::io::Seek>(
                     mesh,
                     error: floor + e,
                 };
-                let (recs, c) =
-                    write_chain(&mut writer, i as u32, vec![level], RepKind::Hlod, floor)?;
+                let (recs, c) = write_chain(
+                    &mut writer,
+                    i as u32,
+                    vec![level],
+                    (RepKind::Hlod, params.compress_reps),
+                    floor,
+                )?;
                 let child_boxes: Vec<([f32; 3], [f32; 3])> = tree[i]
                     .children
                     .iter()
@@ -514,13 +529,14 @@ fn build_in_make_order<W: Write + std::io::Seek>(
     Ok(stats)
 }
 
-/// Writes a node's levels (coarsest first); `floor` is an error every rep must
-/// exceed (the children's for an HLOD). Returns the records and the coarsest level.
+/// Writes a node's levels (coarsest first), compressed or not; `floor` is an
+/// error every rep must exceed (the children's for an HLOD). Returns the
+/// records and the coarsest level.
 fn write_chain<W: Write + std::io::Seek>(
     writer: &mut SceneWriter<W>,
     node: u32,
     levels: Vec<crate::lod::Level>,
-    kind: RepKind,
+    (kind, compress): (RepKind, bool),
     floor: f32,
 ) -> Result<(Vec<RepRecord>, Coarse), FormatError> {
     let n = levels.len();
@@ -540,7 +556,12 @@ fn write_chain<W: Write + std::io::Seek>(
             None => raw,
         };
         below = Some(error);
-        let loc = writer.write_rep(&packed.encode(node, i as u32))?;
+        let payload = if compress {
+            packed.encode_compressed(node, i as u32)
+        } else {
+            packed.encode(node, i as u32)
+        };
+        let loc = writer.write_rep(&payload)?;
         let (bbox_min, bbox_max) = m.bounds().to_arrays();
         recs[i] = RepRecord {
             bbox_min,

@@ -14,7 +14,7 @@
 
 use std::io::{Seek, Write};
 
-use engine::format::{FormatError, SceneFile, SceneWriter};
+use engine::format::{FormatError, RepMesh, SceneFile, SceneWriter};
 use engine::io::ByteSource;
 use engine::skeleton::{RepId, Skeleton};
 
@@ -62,11 +62,24 @@ fn morton3(x: u32, y: u32, z: u32) -> u64 {
     spread(x) | spread(y) << 1 | spread(z) << 2
 }
 
+/// What [`relayout`] does with mesh rep payloads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Payloads {
+    /// Copied as they are.
+    Keep,
+    /// Compressed ([`engine::format::RepMesh::encode_compressed`]).
+    Compressed,
+    /// Stored raw (expanded if compressed).
+    Raw,
+}
+
 /// Copies `src` into `sink` with its reps in [`file_order`]: the same
-/// skeleton and bytes, new offsets. Returns the sink (flushed).
+/// skeleton and meshes, new offsets (and, unless [`Payloads::Keep`], mesh
+/// payloads re-encoded). Returns the sink (flushed).
 pub fn relayout<S: ByteSource, W: Write + Seek>(
     src: &SceneFile<S>,
     sink: W,
+    payloads: Payloads,
 ) -> Result<W, FormatError> {
     let mut skeleton = src.skeleton().clone();
     let mut writer = SceneWriter::new(sink)?;
@@ -76,7 +89,26 @@ pub fn relayout<S: ByteSource, W: Write + Seek>(
         // A tree rep moves whole: its in-core part and its paged part.
         buf.resize(rec.extent() as usize, 0);
         src.source().read_at(rec.offset, &mut buf)?;
-        rec.offset = writer.write_rep(&buf)?.offset;
+        if rec.is_vdt() || payloads == Payloads::Keep {
+            // The same bytes (a tree's `len` and checksum cover only its
+            // in-core part): only the offset changes.
+            rec.offset = if rec.is_vdt() {
+                writer.write_tree_rep(&buf)?.offset
+            } else {
+                writer.write_rep(&buf)?.offset
+            };
+            continue;
+        }
+        let loc = {
+            engine::format::check_rep_crc(r, rec, &buf)?;
+            let mesh = RepMesh::decode(&buf, r, rec)?;
+            let (node, index) = (rec.node, u32::from(rec.index));
+            writer.write_rep(&match payloads {
+                Payloads::Raw => mesh.encode(node, index),
+                _ => mesh.encode_compressed(node, index),
+            })?
+        };
+        (rec.offset, rec.len, rec.checksum) = (loc.offset, loc.len, loc.checksum);
     }
     writer.finish_with_objects(&skeleton, &src.meta(), &src.read_objects_bytes()?)
 }
@@ -85,13 +117,16 @@ pub fn relayout<S: ByteSource, W: Write + Seek>(
 pub fn relayout_file(
     input: &std::path::Path,
     output: &std::path::Path,
+    payloads: Payloads,
 ) -> Result<(), crate::BuildError> {
     let src = SceneFile::open(input).map_err(|source| crate::BuildError::Write {
         path: input.to_path_buf(),
         source,
     })?;
     engine::outfile::write_with(output, &[input], |w| {
-        relayout(&src, w).map(|_| ()).map_err(std::io::Error::other)
+        relayout(&src, w, payloads)
+            .map(|_| ())
+            .map_err(std::io::Error::other)
     })
     .map_err(|source| crate::BuildError::Io {
         path: output.to_path_buf(),

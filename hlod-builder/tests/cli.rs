@@ -58,7 +58,11 @@ fn build_info_and_failures() {
 
     // A bit flip in the rep data is found by `info`, a truncation at open.
     let mut bytes = std::fs::read(d.join("d.hlod")).unwrap();
-    bytes[4096 + 200] ^= 0x40;
+    let rep0 = engine::SceneFile::open(&d.join("d.hlod"))
+        .unwrap()
+        .skeleton()
+        .reps[0];
+    bytes[(rep0.offset + u64::from(rep0.len) / 2) as usize] ^= 0x40;
     std::fs::write(d.join("flip.hlod"), &bytes).unwrap();
     let out = hlod_build(&["info", "flip.hlod"], d);
     assert_clean_failure(&out, "checksum mismatch", d, 2);
@@ -409,7 +413,9 @@ fn real_exports_build_or_fail_cleanly_and_warnings_print_either_way() {
     let info = hlod_build(&["info", "h.hlod"], d);
     let text = String::from_utf8_lossy(&info.stdout);
     assert!(
-        text.contains("format v2")
+        text.contains("format v3")
+            && text.contains("B per input triangle")
+            && text.contains("mesh reps compressed")
             && text.contains("origin 0 0 0")
             && text.contains("91 objects described"),
         "{text}"

@@ -72,7 +72,7 @@ impl Session {
         let scene = SceneFile::from_source(src).with_context(named)?;
         let skeleton = Arc::new(scene.skeleton().clone());
         let origin = scene.meta().origin;
-        let data_bytes: u64 = skeleton.reps.iter().map(|r| u64::from(r.len)).sum();
+        let data_bytes: u64 = skeleton.reps.iter().map(|r| r.expanded_extent()).sum();
         if let Some(b) = budget {
             let bytes = if b.trim() == "auto" {
                 engine_cli::auto_budget(&skeleton)

@@ -163,16 +163,20 @@ pub const AUTO_BUDGET_CAP: u64 = 1 << 30;
 /// stays resident, plus the largest extent), so that it can always be shown
 /// and refined.
 pub fn auto_budget(skeleton: &engine::Skeleton) -> u64 {
-    let data: u64 = skeleton.reps.iter().map(engine::RepRecord::extent).sum();
+    let data: u64 = skeleton
+        .reps
+        .iter()
+        .map(engine::RepRecord::expanded_extent)
+        .sum();
     let root = skeleton
         .nodes
         .first()
         .and_then(|n| skeleton.reps.get(n.first_rep as usize))
-        .map_or(0, engine::RepRecord::extent);
+        .map_or(0, engine::RepRecord::expanded_extent);
     let largest = skeleton
         .reps
         .iter()
-        .map(engine::RepRecord::extent)
+        .map(engine::RepRecord::expanded_extent)
         .max()
         .unwrap_or(0);
     let cap = AUTO_BUDGET_CAP.min(engine::limits::memory_total() / 4);

@@ -1,8 +1,11 @@
-//! The versioned on-disk scene format (version 2; version 1 is still read).
+//! The versioned on-disk scene format (version 3; versions 1 and 2 are still
+//! read).
 //!
 //! ```text
 //! offset 0      FileHeader (192 B; 128 B in version 1), zero-padded to BLOCK
-//! BLOCK         rep payloads, each starting on a BLOCK boundary, zero-padded
+//! BLOCK         rep payloads back to back: a mesh rep on the next REP_ALIGN
+//!               (16 B) boundary, a view-dependence tree on the next BLOCK
+//!               (versions 1 and 2: every rep on a BLOCK); zero-padded to BLOCK
 //! data end      skeleton: [NodeRecord; node_count] [RepRecord; rep_count]
 //! skeleton end  object section (version 2, may be empty): names and extras
 //!               of the source objects, for picking (see [`objects`])
@@ -19,11 +22,13 @@
 //! All integers are little-endian; every record is `repr(C)` with its size
 //! asserted at compile time.
 
+mod codec;
 pub mod objects;
 mod reader;
 mod rep;
 mod writer;
 
+pub use codec::{REPZ_MAGIC, expand_payload, is_compressed};
 pub use reader::{SceneFile, SceneMeta, check_rep_crc, check_vdt_record};
 pub use rep::{PackedVertex, REP_MAGIC, RepHeader, RepMesh, quantize_unit_normal};
 pub use writer::SceneWriter;

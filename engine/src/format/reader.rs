@@ -173,16 +173,22 @@ impl<S: ByteSource> SceneFile<S> {
     pub fn verify_all_reps(&self) -> Result<(), FormatError> {
         for rep in 0..self.skeleton.reps.len() as RepId {
             if self.skeleton.reps[rep as usize].is_vdt() {
-                let file = self.read_vdt(rep)?;
-                for m in 0..file.header.meta_count {
-                    file.read_meta(m).map_err(|e| FormatError::BadRep {
-                        rep,
-                        reason: format!("meta-node {m}: {e}"),
-                    })?;
-                }
+                self.verify_tree(rep)?;
             } else {
                 self.read_rep(rep)?;
             }
+        }
+        Ok(())
+    }
+
+    /// Reads view-dependence tree rep `rep` and every one of its meta-nodes.
+    pub fn verify_tree(&self, rep: RepId) -> Result<(), FormatError> {
+        let file = self.read_vdt(rep)?;
+        for m in 0..file.header.meta_count {
+            file.read_meta(m).map_err(|e| FormatError::BadRep {
+                rep,
+                reason: format!("meta-node {m}: {e}"),
+            })?;
         }
         Ok(())
     }
@@ -319,7 +325,7 @@ fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
             }
             v1.upgrade()
         }
-        VERSION => {
+        2 | VERSION => {
             let hsize = size_of::<FileHeader>();
             if have < hsize as u64 {
                 return Err(truncated(hsize as u64));

@@ -180,6 +180,9 @@ impl RepMesh {
                 bytes.len()
             )));
         }
+        if super::codec::is_compressed(bytes) {
+            return super::codec::decode_compressed(bytes, rep_id, rec);
+        }
         let h: RepHeader = bytemuck::pod_read_unaligned(&bytes[..hsize]);
         if h.magic != REP_MAGIC {
             return Err(bad("bad payload magic".into()));
@@ -208,15 +211,7 @@ impl RepMesh {
                 Self::encoded_len(vc, ic)
             )));
         }
-        if !h
-            .quant_min
-            .iter()
-            .chain(&h.quant_scale)
-            .all(|x| x.is_finite())
-            || h.quant_scale.iter().any(|&s| s < 0.0)
-        {
-            return Err(bad("non-finite or negative quantisation box".into()));
-        }
+        check_quantisation(&h).map_err(bad)?;
         let vbytes = &bytes[hsize..hsize + vc * size_of::<PackedVertex>()];
         let vertices: Vec<PackedVertex> = vbytes
             .chunks_exact(size_of::<PackedVertex>())
@@ -246,6 +241,20 @@ impl RepMesh {
             indices,
         })
     }
+}
+
+/// A header's quantisation box is finite with non-negative steps.
+pub(super) fn check_quantisation(h: &RepHeader) -> Result<(), String> {
+    if !h
+        .quant_min
+        .iter()
+        .chain(&h.quant_scale)
+        .all(|x| x.is_finite())
+        || h.quant_scale.iter().any(|&s| s < 0.0)
+    {
+        return Err("non-finite or negative quantisation box".into());
+    }
+    Ok(())
 }
 
 /// Bounds of a point set; `([0;3], [0;3])` when empty.

@@ -1,5 +1,5 @@
 use super::*;
-use crate::io::MemSource;
+use crate::io::{ByteSource, MemSource};
 use crate::testutil::build;
 use proptest::prelude::*;
 
@@ -13,9 +13,59 @@ fn round_trip_reads_back_skeleton_and_reps() {
     let m = scene.read_rep(4).unwrap();
     assert_eq!(m.tri_count(), 2);
     assert!(scene.read_rep(99).is_err());
-    for r in &skeleton.reps {
-        assert_eq!(r.offset % BLOCK, 0);
+    // Version 3 packs the reps: each starts on the next 16-byte boundary
+    // after the one before it, with no block padding between.
+    let order = skeleton.reps_in_file_order();
+    assert_eq!(skeleton.reps[order[0] as usize].offset, BLOCK);
+    for w in order.windows(2) {
+        let (a, b) = (&skeleton.reps[w[0] as usize], &skeleton.reps[w[1] as usize]);
+        assert_eq!(b.offset % REP_ALIGN, 0);
+        assert_eq!(
+            b.offset,
+            (a.offset + a.extent()).next_multiple_of(REP_ALIGN)
+        );
     }
+}
+
+#[test]
+fn version_2_files_with_block_aligned_reps_still_read() {
+    let (bytes, skeleton) = build(&[1, 2, 3], &[2, 0, 0]);
+    let scene = SceneFile::from_source(MemSource::new(bytes.clone())).unwrap();
+    // Rewrite the same scene as version 2 wrote it: every rep on a block.
+    let mut v2 = vec![0u8; BLOCK as usize];
+    let mut moved = skeleton.clone();
+    for r in skeleton.reps_in_file_order() {
+        let rec = &mut moved.reps[r as usize];
+        let mut buf = vec![0u8; rec.extent() as usize];
+        scene.source().read_at(rec.offset, &mut buf).unwrap();
+        rec.offset = v2.len() as u64;
+        v2.extend_from_slice(&buf);
+        v2.resize(v2.len().next_multiple_of(BLOCK as usize), 0);
+    }
+    let mut h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..192]);
+    let skel: Vec<u8> = [
+        bytemuck::cast_slice::<_, u8>(&moved.nodes),
+        bytemuck::cast_slice(&moved.reps),
+    ]
+    .concat();
+    h.version = 2;
+    h.data_len = v2.len() as u64 - BLOCK;
+    h.skeleton_offset = v2.len() as u64;
+    h.skeleton_crc = crc32fast::hash(&skel);
+    v2.extend_from_slice(&skel);
+    h.objects_offset = v2.len() as u64;
+    v2.extend_from_slice(&bytes[bytes.len() - h.objects_len as usize..]);
+    h.file_len = v2.len() as u64;
+    h.header_crc = 0;
+    h.header_crc = crc32fast::hash(bytemuck::bytes_of(&h));
+    v2[..192].copy_from_slice(bytemuck::bytes_of(&h));
+    let old = SceneFile::from_source(MemSource::new(v2)).unwrap();
+    assert_eq!(old.skeleton(), &moved);
+    old.verify_all_reps().unwrap();
+    assert!(
+        bytes.len() < h.file_len as usize,
+        "packing made the file smaller"
+    );
 }
 
 #[test]
@@ -26,7 +76,7 @@ fn opening_reads_no_rep_data() {
     let end = skeleton
         .reps
         .iter()
-        .map(|r| r.offset + BLOCK)
+        .map(|r| r.offset + r.extent())
         .max()
         .unwrap() as usize;
     bytes[BLOCK as usize..end].fill(0);
@@ -186,9 +236,9 @@ fn version_1_files_are_still_read_with_origin_zero_and_no_objects() {
 #[test]
 fn a_newer_version_is_refused_with_what_to_do() {
     let (mut bytes, _) = build(&[1], &[0]);
-    bytes[8..12].copy_from_slice(&3u32.to_le_bytes());
+    bytes[8..12].copy_from_slice(&(VERSION + 1).to_le_bytes());
     let e = SceneFile::from_source(MemSource::new(bytes)).unwrap_err();
-    assert!(matches!(e, FormatError::UnsupportedVersion { found: 3 }));
+    assert!(matches!(e, FormatError::UnsupportedVersion { found } if found == VERSION + 1));
     assert!(e.to_string().contains("rebuild"), "{e}");
 }
 

@@ -4,7 +4,7 @@
 use std::io::{Seek, SeekFrom, Write};
 use std::mem::size_of;
 
-use super::{BLOCK, FileHeader, FormatError, MAGIC, NodeRecord, RepRecord, VERSION};
+use super::{BLOCK, FileHeader, FormatError, MAGIC, NodeRecord, REP_ALIGN, RepRecord, VERSION};
 use crate::format::reader::SceneMeta;
 use crate::skeleton::Skeleton;
 
@@ -32,21 +32,37 @@ impl<W: Write + Seek> SceneWriter<W> {
         Ok(Self { out, pos: BLOCK })
     }
 
-    /// Appends a payload on the next block boundary.
+    /// Appends a mesh payload on the next [`REP_ALIGN`] boundary, right
+    /// after the previous one.
     pub fn write_rep(&mut self, payload: &[u8]) -> Result<RepLocation, FormatError> {
+        self.write_aligned(payload, REP_ALIGN)
+    }
+
+    /// Appends a view-dependence tree's payload on the next [`BLOCK`]
+    /// boundary: its pages are sized to blocks.
+    pub fn write_tree_rep(&mut self, payload: &[u8]) -> Result<RepLocation, FormatError> {
+        self.write_aligned(payload, BLOCK)
+    }
+
+    fn write_aligned(&mut self, payload: &[u8], align: u64) -> Result<RepLocation, FormatError> {
         let len = u32::try_from(payload.len())
             .map_err(|_| FormatError::TooLarge(format!("rep of {} bytes", payload.len())))?;
+        self.pad_to(align)?;
         let offset = self.pos;
         self.out.write_all(payload)?;
-        let padded = (payload.len() as u64).next_multiple_of(BLOCK);
-        let pad = (padded - payload.len() as u64) as usize;
-        self.out.write_all(&[0u8; BLOCK as usize][..pad])?;
-        self.pos += padded;
+        self.pos += payload.len() as u64;
         Ok(RepLocation {
             offset,
             len,
             checksum: crc32fast::hash(payload),
         })
+    }
+
+    fn pad_to(&mut self, align: u64) -> Result<(), FormatError> {
+        let pad = (self.pos.next_multiple_of(align) - self.pos) as usize;
+        self.out.write_all(&[0u8; BLOCK as usize][..pad])?;
+        self.pos += pad as u64;
+        Ok(())
     }
 
     /// Validates `skeleton` against the written data, writes it and the header,
@@ -66,6 +82,7 @@ impl<W: Write + Seek> SceneWriter<W> {
         if !meta.origin.iter().all(|c| c.is_finite()) {
             return Err(FormatError::BadHeader("origin is not finite".into()));
         }
+        self.pad_to(BLOCK)?;
         skeleton.validate(BLOCK, self.pos)?;
         let too_large = |what: &str| FormatError::TooLarge(what.to_string());
         let node_count = u32::try_from(skeleton.nodes.len()).map_err(|_| too_large("nodes"))?;

@@ -28,7 +28,7 @@ use crossbeam_channel::{Receiver, Sender, TryRecvError};
 use super::resident::{Purpose, ResidentSet};
 use super::{Cmd, Draw, Mode, Reply, RuntimeError, RuntimeParams};
 use crate::camera::View;
-use crate::format::check_rep_crc;
+use crate::format::{RepRecord, check_rep_crc, expand_payload};
 use crate::front::FrontIndex;
 use crate::io::ByteSource;
 use crate::metrics::LoaderCounters;
@@ -132,7 +132,7 @@ impl Loader {
         clock: Arc<dyn crate::clock::Clock>,
     ) -> Self {
         let n = skeleton.reps.len();
-        let skeleton_reps_len: Vec<u32> = skeleton.reps.iter().map(|r| r.len).collect();
+        let skeleton_reps_len: Vec<u64> = skeleton.reps.iter().map(|r| r.resident_len()).collect();
         Self {
             classes: Classifier::new(
                 n,
@@ -281,7 +281,7 @@ impl Loader {
     fn drop_rep(&mut self, r: RepId) {
         let wasted = self.res.wasted_bytes();
         self.res
-            .remove(r, u64::from(self.skeleton.reps[r as usize].len));
+            .remove(r, self.skeleton.reps[r as usize].resident_len());
         self.stats.wasted_bytes += self.res.wasted_bytes() - wasted;
     }
 
@@ -303,7 +303,7 @@ impl Loader {
             return Ok(());
         }
         let r = root.first_rep;
-        let need = self.cost(r);
+        let need = self.cost(r) + load_scratch(&self.skeleton.reps[r as usize]);
         if need > self.params.budget_bytes {
             return Err(RuntimeError::BudgetTooSmall {
                 budget: self.params.budget_bytes,
@@ -432,7 +432,7 @@ impl Loader {
         let (evictions, wasted) = (self.res.evictions(), self.res.wasted_bytes());
         let skeleton = &self.skeleton;
         let ok = self.res.make_room(need, budget, purpose, cap, |r| {
-            u64::from(skeleton.reps[r as usize].len)
+            skeleton.reps[r as usize].resident_len()
         });
         self.stats.evictions += (self.res.evictions() - evictions) as u32;
         self.stats.wasted_bytes += self.res.wasted_bytes() - wasted;
@@ -445,7 +445,8 @@ impl Loader {
             return Err(LoadError::Failed);
         }
         let rec = self.skeleton.reps[r as usize];
-        let len = self.cost(r);
+        let scratch = load_scratch(&rec);
+        let len = self.cost(r) + scratch;
         // In core, a tree comes whole (P_R then refines it without paging).
         let read = if self.params.mode == Mode::Incore && rec.is_vdt() {
             rec.extent()
@@ -508,7 +509,23 @@ impl Loader {
             self.res.release(len);
             return Err(self.fail(r, &e.to_string()));
         }
-        let payload: Arc<[u8]> = buf.into();
+        let payload: Arc<[u8]> = if scratch == 0 {
+            buf.into()
+        } else {
+            let t = self.clock.now();
+            let expanded = match expand_payload(&buf, r, &rec) {
+                Ok(p) => Arc::<[u8]>::from(&*p),
+                Err(e) => {
+                    self.res.release(len);
+                    return Err(self.fail(r, &e.to_string()));
+                }
+            };
+            self.stats.expand_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
+            self.stats.expanded_bytes += expanded.len() as u64;
+            drop(buf);
+            self.res.release(scratch);
+            expanded
+        };
         let speculative = purpose == Purpose::Prefetch && !self.is_late(r);
         self.res.insert(r, payload.clone(), speculative);
         Ok(payload)
@@ -571,14 +588,25 @@ impl Loader {
     }
 }
 
+/// Bytes that loading `rec` needs on top of its footprint: a compressed rep
+/// is read into a buffer of its stored size and then expanded, and both
+/// count until the stored bytes are dropped.
+pub(super) fn load_scratch(rec: &RepRecord) -> u64 {
+    if rec.is_vdt() || rec.resident_len() == u64::from(rec.len) {
+        0
+    } else {
+        u64::from(rec.len)
+    }
+}
+
 /// Footprint of rep `r` while resident: its payload, and the reserve of a
 /// view-dependence tree's store.
-fn footprint(lens: &[u32], pools: &[u64], r: usize) -> u64 {
+fn footprint(lens: &[u64], pools: &[u64], r: usize) -> u64 {
     let pool = pools[r];
     let pool = if pool == super::trees::UNUSABLE {
         0
     } else {
         pool
     };
-    u64::from(lens[r]) + pool
+    lens[r] + pool
 }

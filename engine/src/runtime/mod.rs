@@ -181,7 +181,7 @@ pub enum RuntimeError {
     #[error("invalid parameter: {0}")]
     Params(String),
     #[error(
-        "budget of {budget} bytes is below the minimal front (the root's coarsest rep needs {need} bytes)"
+        "budget of {budget} bytes is below the minimal front (the root's coarsest rep needs {need} bytes, with its compressed copy while it loads)"
     )]
     BudgetTooSmall { budget: u64, need: u64 },
     #[error("the scene has no object-reps")]
@@ -475,7 +475,7 @@ impl Walkthrough {
         };
         for &r in front.iter() {
             let rec = &self.skeleton.reps[r as usize];
-            m.front_bytes += u64::from(rec.len);
+            m.front_bytes += rec.resident_len();
             if !rec.is_vdt() {
                 m.front_tris += u64::from(rec.tri_count);
             }

@@ -9,10 +9,13 @@ use crate::disk::FaultySource;
 use crate::format::SceneFile;
 use crate::io::MemSource;
 use crate::render::NoneRenderer;
-use crate::testutil::build;
+use crate::testutil::{build, build_compressed};
 
 pub(super) fn scene(reps: &[u32], children: &[u32]) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
-    let (bytes, _) = build(reps, children);
+    scene_of(build(reps, children).0)
+}
+
+fn scene_of(bytes: Vec<u8>) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
     let file = SceneFile::from_source(MemSource::new(bytes.clone())).unwrap();
     (
         Arc::new(file.skeleton().clone()),
@@ -22,6 +25,17 @@ pub(super) fn scene(reps: &[u32], children: &[u32]) -> (Arc<Skeleton>, Arc<dyn B
 
 /// A root with `n` leaves of three LODs under `n / 4` interior nodes.
 pub(super) fn wide(n: u32) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
+    let (reps, children) = wide_shape(n);
+    scene(&reps, &children)
+}
+
+/// [`wide`] with its mesh payloads compressed.
+fn wide_compressed(n: u32) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
+    let (reps, children) = wide_shape(n);
+    scene_of(build_compressed(&reps, &children).0)
+}
+
+fn wide_shape(n: u32) -> (Vec<u32>, Vec<u32>) {
     let groups = n / 4;
     let mut reps = vec![1];
     let mut children = vec![groups];
@@ -29,7 +43,7 @@ pub(super) fn wide(n: u32) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
     children.extend(std::iter::repeat_n(4, groups as usize));
     reps.extend(std::iter::repeat_n(3, (groups * 4) as usize));
     children.extend(std::iter::repeat_n(0, (groups * 4) as usize));
-    scene(&reps, &children)
+    (reps, children)
 }
 
 pub(super) fn params(mode: Mode, budget: u64) -> RuntimeParams {
@@ -114,10 +128,11 @@ proptest! {
         prefetch in any::<bool>(),
         // A stall deadline (s) on a disk with 0.2 ms seeks, or none.
         deadline in prop_oneof![Just(0.0f32), 0.0001f32..0.001],
+        compressed in any::<bool>(),
     ) {
-        let (skel, src) = wide(64);
-        let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
-        let root = u64::from(skel.reps[0].len);
+        let (skel, src) = if compressed { wide_compressed(64) } else { wide(64) };
+        let total: u64 = skel.reps.iter().map(|r| r.resident_len()).sum();
+        let root = skel.reps[0].resident_len() + super::loader::load_scratch(&skel.reps[0]);
         let budget = root + ((total - root) as f64 * budget_frac) as u64;
         let mode = if prefetch { Mode::Pre } else { Mode::NoPre };
         let src = if deadline > 0.0 {
@@ -140,6 +155,65 @@ proptest! {
         }
         let frames = run_path(&mut walk, &poses, &mut r, 0.0).unwrap();
         check_frames(&frames, budget);
+    }
+}
+
+#[test]
+fn compressed_reps_are_expanded_counted_as_resident_and_drawn_as_in_core() {
+    let (skel, src) = wide_compressed(64);
+    assert!(
+        skel.reps
+            .iter()
+            .all(|r| u64::from(r.len) < r.resident_len())
+    );
+    let total: u64 = skel.reps.iter().map(|r| r.resident_len()).sum();
+    let poses: Vec<Pose> = (0..200)
+        .map(|i| {
+            pose(
+                i as f32 * 0.35 - 5.0,
+                0.5,
+                2.0 + (i as f32 * 0.1).sin(),
+                1.0,
+            )
+        })
+        .collect();
+    let mut drawn = Vec::new();
+    for (mode, budget) in [
+        (Mode::Incore, 1),
+        (Mode::NoPre, total / 4),
+        (Mode::Pre, total / 4),
+    ] {
+        let mut walk = Walkthrough::start(skel.clone(), src.clone(), params(mode, budget)).unwrap();
+        let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 0.0).unwrap();
+        if mode == Mode::Incore {
+            assert!(frames.iter().all(|f| f.loader.resident_bytes == total));
+        } else {
+            check_frames(&frames, budget);
+            let expanded: u64 = frames.iter().map(|f| f.loader.expanded_bytes).sum();
+            let read: u64 = frames
+                .iter()
+                .map(|f| f.loader.stage2_bytes + f.loader.prefetch_bytes)
+                .sum();
+            // Disk bytes are the stored (compressed) ones; what was
+            // expanded from them is larger.
+            assert!(
+                read > 0 && expanded > read,
+                "{mode:?}: read {read}, expanded {expanded}"
+            );
+        }
+        assert!(frames.iter().all(|f| f.loader.read_errors == 0));
+        drawn.push((
+            frames.iter().map(|f| f.drawn_tris).collect::<Vec<_>>(),
+            frames.iter().map(|f| f.substituted).collect::<Vec<_>>(),
+        ));
+    }
+    // Where nothing was substituted, the same triangles were drawn as in core.
+    for (mode, (tris, subst)) in drawn[1..].iter().enumerate() {
+        let same = (0..poses.len()).filter(|&i| subst[i] == 0);
+        assert!(same.clone().count() > poses.len() / 2, "mode {mode}");
+        for i in same {
+            assert_eq!(tris[i], drawn[0].0[i], "mode {mode}, frame {i}");
+        }
     }
 }
 
@@ -509,14 +583,15 @@ fn the_lookahead_follows_a_pan_and_prefetches_what_turns_into_view() {
 fn f_i_goes_all_around_when_the_all_around_front_fits_even_after_a_slow_first_frame() {
     let (skel, mem) = wide(64);
     let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
-    // 5 ms a seek, 2 MB/s: the first front takes longer than a frame period, so
-    // the first prefetch waits for the next fetch command, and the camera
-    // does not move again before it turns round.
+    // 5 ms a seek, 0.5 MB/s: the first front (packed reps, read on from
+    // where start-up's read ended: no seek) takes longer than a frame period, so the first prefetch waits for the next
+    // fetch command, and the camera does not move again before it turns
+    // round.
     let half = std::f32::consts::FRAC_PI_2;
     let mut poses = vec![pose(30.0, 0.5, 0.5, -half); 40];
     poses.push(pose(30.0, 0.5, 0.5, half));
     let run = |budget: u64, all_around_fit: f32| {
-        let src = throttled(&mem, std::time::Duration::from_millis(5), 2e6);
+        let src = throttled(&mem, std::time::Duration::from_millis(5), 0.5e6);
         let p = RuntimeParams {
             frame_period_s: 0.05,
             prefetch: PrefetchParams {

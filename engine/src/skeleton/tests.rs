@@ -87,14 +87,23 @@ fn validate_rejects_broken_hierarchies() {
         check(&|s| s.nodes[1].rep_count = 0),
         ValidationError::Node { .. }
     ));
+    // A mesh rep stores at most its raw length (less when compressed), and
+    // at least a payload header.
     assert!(matches!(
-        check(&|s| s.reps[5].tri_count += 1),
+        check(&|s| s.reps[5].tri_count -= 1),
         ValidationError::Rep { .. }
     ));
+    assert!(matches!(
+        check(&|s| s.reps[5].len = 47),
+        ValidationError::Rep { .. }
+    ));
+    let mut shorter = good.clone();
+    shorter.reps[5].len -= 16;
+    shorter.validate(4096, u64::MAX).unwrap();
     assert_eq!(
         Skeleton::default().validate(0, 0).unwrap_err(),
         ValidationError::Empty
     );
     let s = good.clone();
-    assert!(s.validate(4096, 8192).is_err(), "ranges past the data end");
+    assert!(s.validate(4096, 4200).is_err(), "ranges past the data end");
 }

@@ -92,7 +92,7 @@ pub fn write_rep<W: Write + Seek>(
     let finest = below.last().map_or(f32::INFINITY, |r| r.error);
     let core = engine::vdt::file::VdtHeader::rep_len(&t.bytes)
         .ok_or_else(|| FormatError::BadHeader("encoded tree without a header".into()))?;
-    let loc = writer.write_rep(&t.bytes)?;
+    let loc = writer.write_tree_rep(&t.bytes)?;
     let error = if t.error < finest {
         t.error
     } else {

@@ -52,7 +52,7 @@ fn seeks(s: &Skeleton, gap: u64) -> (u64, u64) {
             if end.is_none_or(|e| rec.offset > e + gap) {
                 seeks += 1;
             }
-            end = Some((rec.offset + rec.extent()).next_multiple_of(engine::format::BLOCK));
+            end = Some((rec.offset + rec.extent()).next_multiple_of(engine::format::REP_ALIGN));
         }
         reps += new.len() as u64;
         prev.iter_mut().for_each(|p| *p = false);
@@ -122,8 +122,11 @@ fn spatial_layout_holds_the_same_reps_and_needs_fewer_seeks() {
         assert!(sa < sb, "gap {gap}: spatial {sa} seeks vs build order {sb}");
         (ta, tb) = (ta + sa, tb + sb);
     }
+    // Compressed, packed reps (format version 3) are small enough that the
+    // longer gaps bridge much of the build order too: 17% fewer seeks at gap
+    // 0, 11% at 16 KiB, 6% at 64 KiB on this plant.
     assert!(
-        ta * 100 <= tb * 85,
+        ta * 100 <= tb * 90,
         "spatial {ta} seeks vs build order {tb}"
     );
 }

@@ -157,7 +157,7 @@ fn trees_refine_under_one_footprint_in_every_mode() {
     // under the tree's data.
     let statics: u64 = skel.reps[..t as usize]
         .iter()
-        .map(|r| u64::from(r.len))
+        .map(|r| r.resident_len())
         .sum();
     let budget = statics + u64::from(rec.len) + u64::from(rec.len) + POOL;
     assert!(budget < rec.extent());
@@ -185,7 +185,7 @@ fn a_footprint_without_room_for_the_tree_draws_its_static_lod() {
     let (bytes, _) = scenes();
     let (skel, _) = open(bytes);
     let t = tree_rep(&skel) as usize;
-    let statics: u64 = skel.reps[..t].iter().map(|r| u64::from(r.len)).sum();
+    let statics: u64 = skel.reps[..t].iter().map(|r| r.resident_len()).sum();
     let budget = statics + u64::from(skel.reps[t].len) / 2;
     let f = walk(bytes, Mode::Pre, budget, &path(&skel, 120), 0);
     assert!(f.iter().all(|m| m.vdt_trees == 0));

@@ -31,7 +31,7 @@ fn plant_and_flythrough(
     write_plant(&p, &glb).unwrap();
     build_file(&glb, &scene_path, &BuildParams::default(), false).unwrap();
     let skel = Arc::new(SceneFile::open(&scene_path).unwrap().skeleton().clone());
-    let data: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
+    let data: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
     let root = &skel.nodes[0];
     let poses = generate_path(
         PathKind::Flythrough,
@@ -112,8 +112,9 @@ fn slow_disk_reads_through_gaps_and_resumes_preempted_prefetches_within_the_budg
     let dir = tempfile::tempdir().unwrap();
     let (scene_path, skel, data, poses) = plant_and_flythrough(&dir, 9, 300, 600_000, 300);
     let budget = data / 10;
-    // 4 ms seeks, 8 MB/s: a 4 KiB block takes 0.5 ms, so prefetch reads of
-    // several blocks are preempted by the next frame's fetch command.
+    // 4 ms seeks, 8 MB/s, 1 KiB blocks: a block takes 0.13 ms, and a
+    // compressed rep of a few KiB several blocks, so prefetch reads are
+    // preempted by the next frame's fetch command.
     let model = DiskModel {
         latency: std::time::Duration::from_millis(4),
         bytes_per_sec: 8e6,
@@ -126,7 +127,7 @@ fn slow_disk_reads_through_gaps_and_resumes_preempted_prefetches_within_the_budg
         mode: Mode::Pre,
         budget_bytes: budget,
         tolerance_px: 1.0,
-        block_bytes: 4096,
+        block_bytes: 1024,
         frame_period_s: 1.0 / 60.0,
         ..RuntimeParams::default()
     };

@@ -122,7 +122,7 @@ mod tests {
         params.prefetch.sweep_bytes = 1 << 20;
         let index = crate::front::FrontIndex::new(&s);
         let plan = Plan::of(&s, &index, &params);
-        let res = ResidentSet::new(s.reps.iter().map(|r| u64::from(r.len)).collect());
+        let res = ResidentSet::new(s.reps.iter().map(|r| r.resident_len()).collect());
         let failed = vec![false; s.reps.len()];
         let mut w = Sweep::default();
         // Given out of file order; the root rep (0) is not in this front.

@@ -27,7 +27,7 @@ pub fn bounds(
     fps: f32,
 ) -> String {
     let index = FrontIndex::new(skel);
-    let len = |r: RepId| u64::from(skel.reps[r as usize].len);
+    let len = |r: RepId| skel.reps[r as usize].resident_len();
     let fronts: Vec<Vec<RepId>> = poses
         .iter()
         .map(|p| {
@@ -125,7 +125,7 @@ pub fn bounds(
 /// Stage II bytes after the first frame and the number of reps read.
 fn belady(skel: &Skeleton, fronts: &[Vec<RepId>], budget: u64) -> (f64, u64) {
     let n = skel.reps.len();
-    let len = |r: RepId| u64::from(skel.reps[r as usize].len);
+    let len = |r: RepId| skel.reps[r as usize].resident_len();
     let mut uses: Vec<Vec<u32>> = vec![Vec::new(); n];
     for (t, f) in fronts.iter().enumerate() {
         for &r in f {
@@ -189,7 +189,7 @@ fn all_around(
     budgets: &[u64],
     disk: Option<DiskModel>,
 ) -> String {
-    let len = |r: RepId| u64::from(skel.reps[r as usize].len);
+    let len = |r: RepId| skel.reps[r as usize].resident_len();
     let around: Vec<Vec<RepId>> = poses.iter().map(|p| around_of(index, params, p)).collect();
     let mut sizes: Vec<u64> = around
         .iter()

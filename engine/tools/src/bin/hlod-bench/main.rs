@@ -185,7 +185,9 @@ fn run(a: Args) -> Result<()> {
         .with_context(|| scene_name.clone())?;
     let skel = Arc::new(scene.skeleton().clone());
     drop(scene);
-    let data_bytes: u64 = skel.reps.iter().map(|r| r.extent()).sum();
+    // Percentages are of the rep data as it is in core (compressed reps
+    // expanded): what in-core mode holds.
+    let data_bytes: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
     let vdt_pool = parse_size("--vdt-pool", &a.vdt_pool, data_bytes, 100.0)?;
     let coalesce_gap = size_or_off("--coalesce-gap", &a.coalesce_gap, data_bytes)?;
     let sweep_bytes = u32::try_from(size_or_off("--sweep", &a.sweep, data_bytes)?)
