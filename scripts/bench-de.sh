@@ -4,7 +4,7 @@
 # without prefetching) at a footprint of 1.2% (the paper's Double Eagle ratio), on the
 # `ssd` and `hdd` disk models, with the `none` renderer at 10M triangles/s. Each step's
 # wall time and peak RSS are printed (`/usr/bin/time`); the tables go to out/de/.
-# Needs about 10 GiB of memory and 8 GiB of disk.
+# Needs about 10 GiB of memory and 5 GiB of disk (the GLB, the scene and its staging copy).
 # Usage: scripts/bench-de.sh [SEED] [PATH-KINDS] [DISKS] [FRAMES]
 #   defaults: 2 flythrough,approach,orbit ssd,hdd 600
 set -euo pipefail

@@ -366,6 +366,13 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
     );
     if verify {
         let v = verify_data(&scene).with_context(|| format!("{}: rep data", file.display()))?;
+        if v.compressed == 0 {
+            println!(
+                "data: all {} reps read back and match their checksums; no mesh rep is compressed",
+                s.reps.len()
+            );
+            return Ok(());
+        }
         println!(
             "data: all {} reps read back and match their checksums; {} of {} mesh reps compressed, expanded at {:.0} MB/s ({} in {:.2} s on one core)",
             s.reps.len(),
