@@ -232,16 +232,18 @@ impl Loader {
     /// plans the sweep and the lookahead from F_I's front.
     fn classify(&mut self, view: &View, turn_rad: f32) {
         let plan = Plan::of(&self.skeleton, &self.index, &self.params);
+        // A fetch command that arrives meanwhile cuts the classification
+        // short: Stage II comes first.
+        let (pending, cmds) = (&mut self.pending, &self.cmds);
+        let mut stop = || pending.is_some() || preempted(pending, cmds);
         let Some((front, margin)) = self
             .classes
-            .classify_front(&plan, &self.res, view, turn_rad)
+            .classify_front(&plan, &self.res, view, turn_rad, &mut stop)
         else {
             return;
         };
         self.sweep.plan(&plan, &self.res, &self.failed, front);
         let t = self.clock.now();
-        let (pending, cmds) = (&mut self.pending, &self.cmds);
-        let mut stop = || pending.is_some() || preempted(pending, cmds);
         self.ahead.plan(
             &plan,
             &mut self.res,
@@ -387,8 +389,16 @@ impl Loader {
         self.stats.prefetch_queue = self.classes.bins.len() as u32;
         self.stats.coalesce_gap = u32::try_from(self.max_gap()).unwrap_or(u32::MAX);
         #[cfg(debug_assertions)]
-        if let Err(e) = self.res.validate() {
-            panic!("P_I's resident set is inconsistent: {e}");
+        {
+            if let Err(e) = self.res.validate() {
+                panic!("P_I's resident set is inconsistent: {e}");
+            }
+            // Between reads, only a preempted prefetch read holds a
+            // reservation: its footprint and its stored copy.
+            let held = self.partial.as_ref().map_or(0, |p| {
+                self.cost(p.rep) + load_scratch(&self.skeleton.reps[p.rep as usize])
+            });
+            assert_eq!(self.res.reserved(), held, "a reservation leaked");
         }
         let stats = std::mem::take(&mut self.stats);
         self.stats.max_resident_bytes = self.res.bytes();

@@ -138,6 +138,11 @@ impl ResidentSet {
         self.list.access(r);
     }
 
+    /// Bytes reserved for reads in flight.
+    pub fn reserved(&self) -> u64 {
+        self.reserved
+    }
+
     /// Reserves `bytes` for a read about to start (room made first).
     pub fn reserve(&mut self, bytes: u64) {
         self.reserved += bytes;

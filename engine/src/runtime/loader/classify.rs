@@ -8,6 +8,9 @@ use crate::prefetch::{Bins, ang_pr, priority};
 use crate::runtime::resident::ResidentSet;
 use crate::skeleton::RepId;
 
+/// Front reps binned between two checks for a waiting command.
+const STOP_EVERY: usize = 512;
+
 /// The binned prefetch candidates of the last classified view.
 #[derive(Debug)]
 pub(super) struct Classifier {
@@ -48,13 +51,17 @@ impl Classifier {
 
     /// Flushes the bins and classifies the front under the enlarged frustum
     /// F_I, when the viewpoint changed. Returns F_I's front and its margin
-    /// (rad) when it did.
+    /// (rad) when it did. When `stop` says a command is waiting, the
+    /// all-around front is not computed and the binning stops where it is
+    /// (the candidates binned so far stay; the same view is classified
+    /// again next time).
     pub(super) fn classify_front(
         &mut self,
         plan: &Plan,
         res: &ResidentSet,
         view: &View,
         turn_rad: f32,
+        stop: &mut dyn FnMut() -> bool,
     ) -> Option<(&[RepId], f32)> {
         if self.view.as_ref() == Some(view) {
             return None;
@@ -76,7 +83,11 @@ impl Classifier {
         // fit, the all-around one is not computed.
         let fit = f64::from(p.all_around_fit) * plan.params.budget_bytes as f64;
         let bytes = |f: &[RepId]| f.iter().map(|&r| res.cost(r)).sum::<u64>() as f64;
-        if fit > 0.0 && margin < std::f32::consts::FRAC_PI_2 && bytes(&front) <= fit {
+        let mut cut = false;
+        if fit > 0.0 && margin < std::f32::consts::FRAC_PI_2 && bytes(&front) <= fit && {
+            cut = stop();
+            !cut
+        } {
             let all = view.frustum(std::f32::consts::PI);
             plan.index
                 .compute(view, &all, plan.params.tolerance_px, &mut self.all);
@@ -89,8 +100,16 @@ impl Classifier {
         self.theta0 = own.half_angle;
         self.own = Some(own);
         self.theta1 = margin.max(1e-3);
-        for &r in &front {
+        for (i, &r) in front.iter().enumerate() {
+            if i % STOP_EVERY == STOP_EVERY - 1 && stop() {
+                cut = true;
+                break;
+            }
             self.classify(plan, r, 0, r);
+        }
+        if cut {
+            // Classified in part: the same view is classified again.
+            self.view = None;
         }
         self.front = front;
         Some((&self.front, margin))

@@ -62,7 +62,9 @@ fn classify_bins_the_enlarged_front_once_per_viewpoint() {
     let (index, res, mut c) = setup(&s, &p);
     let plan = Plan::of(&s, &index, &p);
     let view = p.view(&pose_at(12.0));
-    let (front, margin) = c.classify_front(&plan, &res, &view, 0.0).unwrap();
+    let (front, margin) = c
+        .classify_front(&plan, &res, &view, 0.0, &mut || false)
+        .unwrap();
     let front = front.to_vec();
     assert!((margin - 10f32.to_radians()).abs() < 1e-6);
     let x = xs(&s, &front);
@@ -73,7 +75,10 @@ fn classify_bins_the_enlarged_front_once_per_viewpoint() {
     assert_eq!(c.bins.len(), front.len());
     assert!(front.iter().all(|&r| c.is_queued(r)));
     // The same viewpoint again: nothing is reclassified.
-    assert!(c.classify_front(&plan, &res, &view, 0.0).is_none());
+    assert!(
+        c.classify_front(&plan, &res, &view, 0.0, &mut || false)
+            .is_none()
+    );
     // Front reps come out first (their priority is capped at δ).
     let (first, depth) = c.bins.pop().unwrap();
     assert!(front.contains(&first) && depth == 0);
@@ -84,8 +89,37 @@ fn classify_bins_the_enlarged_front_once_per_viewpoint() {
     assert!(!c.is_queued(0) && c.bins.len() == before);
     // A new viewpoint: a new generation; the old candidates are recent.
     let moved = p.view(&pose_at(4.0));
-    assert!(c.classify_front(&plan, &res, &moved, 0.0).is_some());
+    assert!(
+        c.classify_front(&plan, &res, &moved, 0.0, &mut || false)
+            .is_some()
+    );
     assert!(!c.is_queued(first) && c.is_recent(first));
+}
+
+#[test]
+fn a_waiting_command_cuts_the_classification_short_and_it_is_redone() {
+    let s = row();
+    let mut p = params();
+    p.prefetch.all_around_fit = 1.0;
+    p.budget_bytes = u64::MAX / 4; // the all-around front fits
+    let (index, res, mut c) = setup(&s, &p);
+    let plan = Plan::of(&s, &index, &p);
+    let view = p.view(&pose_at(12.0));
+    let (_, margin) = c
+        .classify_front(&plan, &res, &view, 0.0, &mut || true)
+        .unwrap();
+    assert!(margin < 1.0, "no all-around front while a command waits");
+    // The same view again: classified in full this time.
+    let (front, margin) = c
+        .classify_front(&plan, &res, &view, 0.0, &mut || false)
+        .unwrap();
+    assert_eq!(margin, std::f32::consts::PI);
+    let x = xs(&s, front);
+    assert!(x.contains(&0) && x.contains(&23), "{x:?}");
+    assert!(
+        c.classify_front(&plan, &res, &view, 0.0, &mut || false)
+            .is_none()
+    );
 }
 
 /// A clock that moves by `step` each time it is read.
@@ -113,7 +147,9 @@ fn the_lookahead_serves_the_parts_the_motion_reaches_first() {
     ahead.observe(&pose_at(4.0));
     ahead.observe(&pose_at(5.0));
     let view = p.view(&pose_at(5.0));
-    let (_, margin) = c.classify_front(&plan, &res, &view, 0.0).unwrap();
+    let (_, margin) = c
+        .classify_front(&plan, &res, &view, 0.0, &mut || false)
+        .unwrap();
     let clock = ManualClock::new();
     // Plans `a` for `view` on `clock`; `stop` says a fetch command waits.
     let mut plan_with = |a: &mut Lookahead,
@@ -174,7 +210,9 @@ fn f_i_is_all_around_only_when_the_all_around_front_fits() {
     p.budget_bytes = bytes * 2;
     let (index, res, mut c) = setup(&s, &p);
     let plan = Plan::of(&s, &index, &p);
-    let (front, margin) = c.classify_front(&plan, &res, &view(&p), 0.0).unwrap();
+    let (front, margin) = c
+        .classify_front(&plan, &res, &view(&p), 0.0, &mut || false)
+        .unwrap();
     assert_eq!(margin, std::f32::consts::PI);
     assert_eq!(front.len(), 24, "every part");
     // One that holds a few parts: F_I, the view widened by the margin,
@@ -182,7 +220,9 @@ fn f_i_is_all_around_only_when_the_all_around_front_fits() {
     p.budget_bytes = u64::from(s.reps[1].len) * 8;
     let (index, res, mut c) = setup(&s, &p);
     let plan = Plan::of(&s, &index, &p);
-    let (front, margin) = c.classify_front(&plan, &res, &view(&p), 0.0).unwrap();
+    let (front, margin) = c
+        .classify_front(&plan, &res, &view(&p), 0.0, &mut || false)
+        .unwrap();
     let front = front.to_vec();
     assert!(margin < 1.0 && front.len() < 24, "{margin} {}", front.len());
     let mut all = Vec::new();

@@ -317,7 +317,8 @@ impl Loader {
     pub(super) fn cancel_partial(&mut self) -> bool {
         match self.partial.take() {
             Some(p) => {
-                let c = self.cost(p.rep);
+                // What `load` reserved: the footprint and the stored copy.
+                let c = self.cost(p.rep) + super::load_scratch(&self.skeleton.reps[p.rep as usize]);
                 self.res.release(c);
                 true
             }
