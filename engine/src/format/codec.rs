@@ -188,16 +188,7 @@ mod tests {
         RepMesh::quantize(&pos, &nrm, &col, idx)
     }
 
-    fn record(m: &RepMesh, bytes: &[u8]) -> RepRecord {
-        RepRecord {
-            node: 3,
-            index: 1,
-            tri_count: m.tri_count() as u32,
-            vertex_count: m.vertices.len() as u32,
-            len: bytes.len() as u32,
-            ..Default::default()
-        }
-    }
+    use super::super::rep::tests::record_for as record;
 
     #[test]
     fn compressed_payloads_expand_to_the_raw_payload() {

@@ -274,7 +274,7 @@ pub(crate) fn bounds(points: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     fn sample() -> RepMesh {
@@ -284,7 +284,8 @@ mod tests {
         RepMesh::quantize(&pos, &nrm, &col, vec![0, 1, 2])
     }
 
-    fn record_for(m: &RepMesh, bytes: &[u8]) -> RepRecord {
+    /// The record of `m` as node 3's rep 1, stored as `bytes`.
+    pub(in crate::format) fn record_for(m: &RepMesh, bytes: &[u8]) -> RepRecord {
         RepRecord {
             node: 3,
             index: 1,
