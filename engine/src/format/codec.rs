@@ -16,7 +16,7 @@
 use std::borrow::Cow;
 use std::mem::size_of;
 
-use super::rep::{PackedVertex, RepHeader, RepMesh};
+use super::rep::{PackedVertex, RepHeader, RepMesh, check_header, check_indices};
 use super::{FormatError, RepRecord};
 
 /// Magic of a compressed payload.
@@ -103,16 +103,7 @@ pub(super) fn decode_compressed(
         )));
     }
     let h: RepHeader = bytemuck::pod_read_unaligned(&bytes[..hsize]);
-    if h.node != rec.node || h.index != u32::from(rec.index) {
-        return Err(bad(format!(
-            "payload belongs to node {} rep {}, skeleton says node {} rep {}",
-            h.node, h.index, rec.node, rec.index
-        )));
-    }
-    if h.vertex_count != rec.vertex_count || h.index_count != rec.tri_count.wrapping_mul(3) {
-        return Err(bad("payload counts differ from the skeleton".into()));
-    }
-    super::rep::check_quantisation(&h).map_err(bad)?;
+    check_header(&h, rec).map_err(bad)?;
     let (vc, ic) = (h.vertex_count as usize, h.index_count as usize);
     let vlen = u32::from_le_bytes(bytes[hsize..hsize + 4].try_into().expect("4 bytes")) as usize;
     let body = &bytes[hsize + PREFIX..];
@@ -131,9 +122,7 @@ pub(super) fn decode_compressed(
         .map_err(|e| bad(format!("vertex stream does not decode: {e:?}")))?;
     let indices: Vec<u32> = meshopt::decode_index_buffer(is, ic)
         .map_err(|e| bad(format!("index stream does not decode: {e:?}")))?;
-    if let Some(&i) = indices.iter().find(|&&i| i as usize >= vc) {
-        return Err(bad(format!("index {i} out of range of {vc} vertices")));
-    }
+    check_indices(&indices, vc).map_err(bad)?;
     Ok(RepMesh {
         quant_min: h.quant_min,
         quant_scale: h.quant_scale,

@@ -187,16 +187,8 @@ impl RepMesh {
         if h.magic != REP_MAGIC {
             return Err(bad("bad payload magic".into()));
         }
-        if h.node != rec.node || h.index != u32::from(rec.index) {
-            return Err(bad(format!(
-                "payload belongs to node {} rep {}, skeleton says node {} rep {}",
-                h.node, h.index, rec.node, rec.index
-            )));
-        }
+        check_header(&h, rec).map_err(bad)?;
         let (vc, ic) = (h.vertex_count as usize, h.index_count as usize);
-        if h.vertex_count != rec.vertex_count || h.index_count != rec.tri_count.wrapping_mul(3) {
-            return Err(bad("payload counts differ from the skeleton".into()));
-        }
         let expect_isize = if vc <= 1 << 16 { 2 } else { 4 };
         if h.index_size as usize != expect_isize {
             return Err(bad(format!(
@@ -211,7 +203,6 @@ impl RepMesh {
                 Self::encoded_len(vc, ic)
             )));
         }
-        check_quantisation(&h).map_err(bad)?;
         let vbytes = &bytes[hsize..hsize + vc * size_of::<PackedVertex>()];
         let vertices: Vec<PackedVertex> = vbytes
             .chunks_exact(size_of::<PackedVertex>())
@@ -231,9 +222,7 @@ impl RepMesh {
                 .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
                 .collect()
         };
-        if let Some(&i) = indices.iter().find(|&&i| i as usize >= vc) {
-            return Err(bad(format!("index {i} out of range of {vc} vertices")));
-        }
+        check_indices(&indices, vc).map_err(bad)?;
         Ok(Self {
             quant_min: h.quant_min,
             quant_scale: h.quant_scale,
@@ -243,8 +232,18 @@ impl RepMesh {
     }
 }
 
-/// A header's quantisation box is finite with non-negative steps.
-pub(super) fn check_quantisation(h: &RepHeader) -> Result<(), String> {
+/// A payload header against its skeleton record: the same owner and
+/// counts, and a finite quantisation box with non-negative steps.
+pub(super) fn check_header(h: &RepHeader, rec: &RepRecord) -> Result<(), String> {
+    if h.node != rec.node || h.index != u32::from(rec.index) {
+        return Err(format!(
+            "payload belongs to node {} rep {}, skeleton says node {} rep {}",
+            h.node, h.index, rec.node, rec.index
+        ));
+    }
+    if h.vertex_count != rec.vertex_count || h.index_count != rec.tri_count.wrapping_mul(3) {
+        return Err("payload counts differ from the skeleton".into());
+    }
     if !h
         .quant_min
         .iter()
@@ -255,6 +254,14 @@ pub(super) fn check_quantisation(h: &RepHeader) -> Result<(), String> {
         return Err("non-finite or negative quantisation box".into());
     }
     Ok(())
+}
+
+/// Every index is below the vertex count.
+pub(super) fn check_indices(indices: &[u32], vertex_count: usize) -> Result<(), String> {
+    match indices.iter().find(|&&i| i as usize >= vertex_count) {
+        Some(&i) => Err(format!("index {i} out of range of {vertex_count} vertices")),
+        None => Ok(()),
+    }
 }
 
 /// Bounds of a point set; `([0;3], [0;3])` when empty.
