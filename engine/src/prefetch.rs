@@ -88,6 +88,14 @@ impl Bins {
         }
     }
 
+    /// Appends `rep` to the bin served last (a rep hidden from the view:
+    /// it may show at the next door, after everything visible).
+    pub fn push_last(&mut self, rep: RepId, depth: u8) {
+        let b = *self.order.last().expect("at least one bin");
+        self.queues[b].push_back((rep, depth));
+        self.len += 1;
+    }
+
     /// The item [`pop`](Self::pop) would return, left in its bin.
     pub fn peek(&self) -> Option<(RepId, u8)> {
         self.order

@@ -208,7 +208,9 @@ impl Loader {
                     view,
                     turn_rad,
                     front,
+                    hidden,
                 } => {
+                    self.classes.set_hidden(&hidden);
                     self.pacing
                         .on_fetch(self.clock.now(), f64::from(self.params.frame_period_s));
                     self.wait_fetch = false;

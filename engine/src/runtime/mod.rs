@@ -36,6 +36,7 @@ use crate::camera::{Pose, View};
 use crate::front::FrontIndex;
 use crate::io::ByteSource;
 use crate::metrics::{FrameMetrics, LoaderCounters};
+use crate::occlusion::OcclusionCuller;
 use crate::render::Renderer;
 use crate::skeleton::{RepId, Skeleton};
 
@@ -153,6 +154,10 @@ pub struct RuntimeParams {
     /// left are drawn as their nearest resident ancestor (counted as
     /// substituted and late) and loaded right after the frame.
     pub stall_deadline_s: f32,
+    /// Occlusion culling (0: off): the bytes of P_R's occluder store,
+    /// taken out of `budget_bytes` (P_I's reps get the rest). See
+    /// [`crate::occlusion`].
+    pub occlusion_bytes: u64,
 }
 
 impl Default for RuntimeParams {
@@ -171,6 +176,7 @@ impl Default for RuntimeParams {
             vdt_pool_bytes: 4 << 20,
             coalesce_max_gap: 1 << 20,
             stall_deadline_s: 0.0,
+            occlusion_bytes: 0,
         }
     }
 }
@@ -214,6 +220,9 @@ impl RuntimeParams {
         }
         if !(self.stall_deadline_s >= 0.0 && self.stall_deadline_s <= 60.0) {
             return bad("stall deadline must be in [0, 60] seconds");
+        }
+        if self.mode != Mode::Incore && self.occlusion_bytes > self.budget_bytes / 2 {
+            return bad("the occluder store may take at most half the budget");
         }
         if self.block_bytes < 512 {
             return bad("block size must be at least 512 bytes");
@@ -271,6 +280,8 @@ enum Cmd {
         view: View,
         turn_rad: f32,
         front: Arc<Vec<RepId>>,
+        /// Reps of the view's front that occlusion culling left out.
+        hidden: Arc<Vec<RepId>>,
     },
     /// P_R cannot use this rep (a view-dependence tree whose store failed).
     Unusable(RepId),
@@ -312,6 +323,7 @@ pub struct Walkthrough {
     frame: u32,
     last_pose: Option<Pose>,
     trees: trees::Trees,
+    occlusion: Option<OcclusionCuller>,
 }
 
 impl std::fmt::Debug for Walkthrough {
@@ -367,12 +379,17 @@ impl Walkthrough {
         let (cmd_tx, cmd_rx) = bounded(2);
         let (reply_tx, reply_rx) = bounded(256);
         let (ready_tx, ready_rx) = bounded(1);
+        // P_I's reps get the footprint less the occluder store.
+        let loader_params = RuntimeParams {
+            budget_bytes: params.budget_bytes - params.occlusion_bytes.min(params.budget_bytes),
+            ..params
+        };
         let l = loader::Loader::new(
             skeleton.clone(),
             index.clone(),
             source,
             pools,
-            params,
+            loader_params,
             (cmd_rx, reply_tx),
             clock,
         );
@@ -388,6 +405,7 @@ impl Walkthrough {
             }
             Err(_) => return Err(RuntimeError::LoaderGone),
         }
+        let skeleton_reps = skeleton.reps.len();
         Ok(Self {
             drawn_stamp: vec![0; skeleton.reps.len()],
             skeleton,
@@ -399,6 +417,8 @@ impl Walkthrough {
             frame: 0,
             last_pose: None,
             trees,
+            occlusion: (params.occlusion_bytes > 0)
+                .then(|| OcclusionCuller::new(skeleton_reps, params.occlusion_bytes)),
         })
     }
 
@@ -452,6 +472,13 @@ impl Walkthrough {
             &mut front,
         );
         let front_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let mut hidden = Vec::new();
+        let mut occlusion_ms = 0.0;
+        if let Some(c) = &mut self.occlusion {
+            let t = Instant::now();
+            c.cull(&view, &self.skeleton, &self.index, &mut front, &mut hidden);
+            occlusion_ms = t.elapsed().as_secs_f64() * 1e3;
+        }
         let turn_rad = self.last_pose.map_or(0.0, |p| p.angle_to(pose));
         self.last_pose = Some(*pose);
         let front = Arc::new(front);
@@ -460,6 +487,7 @@ impl Walkthrough {
                 view,
                 turn_rad,
                 front: front.clone(),
+                hidden: Arc::new(hidden),
             })
             .map_err(|_| RuntimeError::LoaderGone)?;
         self.frame += 1;
@@ -514,6 +542,17 @@ impl Walkthrough {
             }
         };
         renderer.end_frame();
+        if let Some(c) = &mut self.occlusion {
+            let t = Instant::now();
+            c.end_frame(&self.skeleton, &self.index, &front);
+            occlusion_ms += t.elapsed().as_secs_f64() * 1e3;
+            let cs = c.stats();
+            m.occluders = cs.occluders;
+            m.occluded_reps = cs.occluded;
+            m.occluder_tris = cs.triangles;
+            m.occluder_bytes = c.store_bytes();
+        }
+        m.occlusion_ms = occlusion_ms;
         for r in unusable {
             self.cmd
                 .send(Cmd::Unusable(r))
@@ -569,6 +608,11 @@ impl Walkthrough {
             m.drawn_reps += 1;
         } else {
             m.substituted += 1;
+        }
+        if rep == for_rep
+            && let Some(c) = &mut self.occlusion
+        {
+            c.drawn(rep, rec, &payload);
         }
         if self.drawn_stamp[rep as usize] != stamp {
             self.drawn_stamp[rep as usize] = stamp;

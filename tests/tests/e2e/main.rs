@@ -6,6 +6,7 @@ mod conformance;
 mod corrupt_gltf;
 mod layout;
 mod objects;
+mod occlusion;
 mod render;
 mod scenes;
 mod vdt;

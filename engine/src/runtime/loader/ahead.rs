@@ -133,7 +133,8 @@ impl Lookahead {
             plan.index
                 .compute(&ahead, &f, plan.params.tolerance_px, &mut front);
             for &r in &front {
-                if failed[r as usize] {
+                // Hidden now: left to the bins, which serve it last.
+                if failed[r as usize] || classes.is_hidden(r) {
                     continue;
                 }
                 if res.contains(r) {

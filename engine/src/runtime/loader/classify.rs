@@ -30,6 +30,11 @@ pub(super) struct Classifier {
     /// The last F_I front, and the all-around front (scratch).
     front: Vec<RepId>,
     all: Vec<RepId>,
+    /// A rep is hidden from the view (occlusion culling left it out of
+    /// P_R's front) when its stamp is `hidden_stamp`: it goes to the bin
+    /// served last.
+    hidden: Vec<u32>,
+    hidden_stamp: u32,
 }
 
 impl Classifier {
@@ -46,6 +51,21 @@ impl Classifier {
             theta1: 1.0,
             front: Vec::new(),
             all: Vec::new(),
+            hidden: vec![0; reps],
+            hidden_stamp: 1,
+        }
+    }
+
+    /// Whether occlusion culling left rep `r` out of this fetch's front.
+    pub(super) fn is_hidden(&self, r: RepId) -> bool {
+        self.hidden[r as usize] == self.hidden_stamp
+    }
+
+    /// The reps occlusion culling left out of this fetch's front.
+    pub(super) fn set_hidden(&mut self, hidden: &[RepId]) {
+        self.hidden_stamp += 1;
+        for &r in hidden {
+            self.hidden[r as usize] = self.hidden_stamp;
         }
     }
 
@@ -128,6 +148,11 @@ impl Classifier {
         let (Some(view), Some(own)) = (self.view, self.own) else {
             return;
         };
+        if self.hidden[r as usize] == self.hidden_stamp {
+            self.bins.push_last(r, depth);
+            self.queued[r as usize] = self.generation;
+            return;
+        }
         let node = plan.skeleton.reps[r as usize].node;
         let by_node = plan.skeleton.reps[by as usize].node;
         let eps = plan.index.projected_error(&view, by_node, by);

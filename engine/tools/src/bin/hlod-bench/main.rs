@@ -37,8 +37,9 @@ struct Args {
     #[arg(long)]
     path: Option<PathBuf>,
     /// Generated path when no --path: flythrough, approach, orbit,
-    /// approach-orbit or random (a hostile random walk with jumps, for soak
-    /// runs; see --seed).
+    /// approach-orbit, random (a hostile random walk with jumps, for soak
+    /// runs; see --seed) or interior (a walk at eye height through a
+    /// building's storeys and rooms, found from its geometry; see --seed).
     #[arg(long, default_value = "flythrough")]
     path_kind: String,
     /// Seed of the random path.
@@ -143,6 +144,10 @@ struct Args {
     /// ancestor (counted as substituted and late) and read after the frame.
     #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 60_000.0))]
     stall_deadline: f32,
+    /// Occlusion culling (0: off): the share of the budget that P_R's
+    /// occluder store takes (P_I's reps get the rest), e.g. 0.05.
+    #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 0.5))]
+    occlusion: f32,
 }
 
 fn main() -> ExitCode {
@@ -184,6 +189,22 @@ fn run(a: Args) -> Result<()> {
     let scene = SceneFile::from_source(FileSource::from_file(file.try_clone()?)?)
         .with_context(|| scene_name.clone())?;
     let skel = Arc::new(scene.skeleton().clone());
+    let interior = if a.path.is_none() && a.path_kind == "interior" {
+        let tris = engine::interior::scene_triangles(&scene).with_context(|| scene_name.clone())?;
+        let p = engine::interior::InteriorParams {
+            seed: a.seed,
+            ..Default::default()
+        };
+        let path = engine::interior::interior_path(&tris, a.frames, &p)
+            .with_context(|| format!("{scene_name}: interior path"))?;
+        println!(
+            "interior path: storeys at {:?}, walkable cells {:?}, {} jumps between storeys",
+            path.storeys, path.cells, path.jumps
+        );
+        Some(path.poses)
+    } else {
+        None
+    };
     drop(scene);
     // Percentages are of the rep data as it is in core (compressed reps
     // expanded): what in-core mode holds.
@@ -213,9 +234,10 @@ fn run(a: Args) -> Result<()> {
     let budget = budgets[0];
     let root = &skel.nodes[0];
     let (min, max) = (Vec3::from(root.bbox_min), Vec3::from(root.bbox_max));
-    let poses: Vec<Pose> = match &a.path {
-        Some(p) => read_path(p)?,
-        None => {
+    let poses: Vec<Pose> = match (&a.path, interior) {
+        (Some(p), _) => read_path(p)?,
+        (None, Some(walk)) => walk,
+        (None, None) => {
             let kind = match a.path_kind.as_str() {
                 "flythrough" => PathKind::Flythrough,
                 "approach" => PathKind::Approach,
@@ -223,7 +245,7 @@ fn run(a: Args) -> Result<()> {
                 "approach-orbit" => PathKind::ApproachOrbit,
                 "random" => PathKind::Random { seed: a.seed },
                 k => bail!(
-                    "--path-kind {k:?}: use flythrough, approach, orbit, approach-orbit or random"
+                    "--path-kind {k:?}: use flythrough, approach, orbit, approach-orbit, random or interior"
                 ),
             };
             generate_path(kind, min, max, a.frames)
@@ -314,6 +336,7 @@ fn run(a: Args) -> Result<()> {
         let params = RuntimeParams {
             mode,
             budget_bytes: budget,
+            occlusion_bytes: (f64::from(a.occlusion) * budget as f64) as u64,
             ..params
         };
         let t0 = std::time::Instant::now();
@@ -347,7 +370,8 @@ fn run(a: Args) -> Result<()> {
             None => &mut none_r,
         };
         let over_budget = |f: &engine::metrics::FrameMetrics| {
-            mode != Mode::Incore && (f.loader.max_resident_bytes > budget || f.gpu_bytes > budget)
+            mode != Mode::Incore
+                && (f.loader.max_resident_bytes + f.occluder_bytes > budget || f.gpu_bytes > budget)
         };
         // The first frame loads the first front; the others come a frame
         // period apart after it.

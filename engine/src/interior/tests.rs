@@ -1,0 +1,131 @@
+use super::*;
+
+/// An axis-aligned box as 12 triangles.
+fn cuboid(min: Vec3, max: Vec3, out: &mut Vec<[Vec3; 3]>) {
+    let c = |i: u32| {
+        Vec3::new(
+            if i & 1 == 0 { min.x } else { max.x },
+            if i & 2 == 0 { min.y } else { max.y },
+            if i & 4 == 0 { min.z } else { max.z },
+        )
+    };
+    // Faces as quads of corner numbers, wound outwards.
+    for q in [
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+    ] {
+        out.push([c(q[0]), c(q[1]), c(q[2])]);
+        out.push([c(q[0]), c(q[2]), c(q[3])]);
+    }
+}
+
+/// Two rooms of 6 x 6 m side by side along x, a wall between them with a
+/// 1 m door, under a roof slab; `storeys` such floors stacked 3 m apart.
+fn house(storeys: u32) -> Vec<[Vec3; 3]> {
+    let mut t = Vec::new();
+    for s in 0..storeys {
+        let y = 3.0 * s as f32;
+        cuboid(
+            Vec3::new(0.0, y - 0.2, 0.0),
+            Vec3::new(12.0, y, 6.0),
+            &mut t,
+        );
+        cuboid(
+            Vec3::new(0.0, y + 2.8, 0.0),
+            Vec3::new(12.0, y + 3.0, 6.0),
+            &mut t,
+        );
+        // Outer walls.
+        cuboid(
+            Vec3::new(-0.2, y, 0.0),
+            Vec3::new(0.0, y + 2.8, 6.0),
+            &mut t,
+        );
+        cuboid(
+            Vec3::new(12.0, y, 0.0),
+            Vec3::new(12.2, y + 2.8, 6.0),
+            &mut t,
+        );
+        cuboid(
+            Vec3::new(0.0, y, -0.2),
+            Vec3::new(12.0, y + 2.8, 0.0),
+            &mut t,
+        );
+        cuboid(
+            Vec3::new(0.0, y, 6.0),
+            Vec3::new(12.0, y + 2.8, 6.2),
+            &mut t,
+        );
+        // The middle wall, its door from z = 2.5 to 3.5.
+        cuboid(Vec3::new(5.9, y, 0.0), Vec3::new(6.1, y + 2.8, 2.5), &mut t);
+        cuboid(Vec3::new(5.9, y, 3.5), Vec3::new(6.1, y + 2.8, 6.0), &mut t);
+    }
+    t
+}
+
+#[test]
+fn the_walk_stays_indoors_at_eye_height_and_goes_through_the_door() {
+    let tris = house(1);
+    let p = InteriorParams::default();
+    let path = interior_path(&tris, 2000, &p).unwrap();
+    assert_eq!(path.poses.len(), 2000);
+    assert_eq!(path.storeys.len(), 1);
+    assert!((path.storeys[0] - 0.0).abs() < 0.1, "{:?}", path.storeys);
+    let (mut left, mut right) = (false, false);
+    for q in &path.poses {
+        let e = q.position;
+        assert!((e.y - 1.6).abs() < 0.15, "eye at {e}");
+        assert!(
+            e.x > 0.0 && e.x < 12.0 && e.z > 0.0 && e.z < 6.0,
+            "outside at {e}"
+        );
+        // Never inside the middle wall except through the door.
+        if e.x > 5.9 && e.x < 6.1 {
+            assert!(e.z > 2.5 && e.z < 3.5, "through the wall at {e}");
+        }
+        left |= e.x < 5.0;
+        right |= e.x > 7.0;
+    }
+    assert!(left && right, "both rooms are visited");
+    // Deterministic, and another seed walks elsewhere.
+    assert_eq!(interior_path(&tris, 2000, &p).unwrap(), path);
+    let other = interior_path(&tris, 2000, &InteriorParams { seed: 9, ..p }).unwrap();
+    assert_ne!(other.poses, path.poses);
+}
+
+#[test]
+fn every_storey_is_walked() {
+    let tris = house(3);
+    let path = interior_path(&tris, 3000, &InteriorParams::default()).unwrap();
+    assert_eq!(path.storeys.len(), 3, "{:?}", path.storeys);
+    for (k, y) in [0.0, 3.0, 6.0].iter().enumerate() {
+        assert!(
+            path.poses
+                .iter()
+                .any(|q| (q.position.y - (y + 1.6)).abs() < 0.15),
+            "storey {k}"
+        );
+    }
+    // No stairwell in this house: each move up is a jump.
+    assert_eq!(path.jumps, 2);
+}
+
+#[test]
+fn a_scene_without_floors_or_rooms_is_refused() {
+    let mut t = Vec::new();
+    cuboid(Vec3::ZERO, Vec3::ONE, &mut t);
+    // A cube has an up-facing top but no indoor space to stand in.
+    assert_eq!(
+        interior_path(&t, 10, &InteriorParams::default()),
+        Err(InteriorError::NoFreeSpace)
+    );
+    let wall = vec![[Vec3::ZERO, Vec3::X, Vec3::Y]];
+    assert_eq!(
+        interior_path(&wall, 10, &InteriorParams::default()),
+        Err(InteriorError::NoFloors)
+    );
+}

@@ -1,0 +1,204 @@
+//! Occlusion culling of the front (issue: architectural walkthroughs).
+//!
+//! Two passes per frame, on P_R's thread and on the CPU, so that lavapipe
+//! and a GPU decide alike:
+//!
+//! 1. Stage I computes the front `F` (frustum and simplification culling).
+//!    The reps of `F` that were visible in the previous frame and whose
+//!    occluder triangles P_R holds are the *occluders*: they stay in the
+//!    front, so they are drawn this frame, and their triangles are
+//!    rasterised into an [`OcclusionBuffer`]. Every other rep of `F` is
+//!    tested by its node's box and left out of the front when the box is
+//!    hidden. P_I never sees the hidden reps as front reps: they are not
+//!    fetched on demand, and prefetching ranks them last.
+//! 2. After the frame, the occluder triangles of the reps drawn for the
+//!    first time are added, and every front rep is tested against the
+//!    complete buffer: those not hidden are the next frame's candidates.
+//!
+//! The test is conservative for the image: a rep is left out only when its
+//! box is behind triangles that this very frame draws, at every pixel
+//! centre the box covers (up to float rounding against the GPU's own
+//! vertex transform and the test's relative depth margin of 1e-4). Occluder triangles are a rep's largest ones
+//! (walls, slabs), kept by P_R in an [`OccluderStore`] of bounded bytes,
+//! which come out of the footprint.
+
+mod buffer;
+mod store;
+
+pub use buffer::{OcclusionBuffer, TILE};
+pub use store::{OccluderStore, occluder_triangles};
+
+type Tris = Arc<[[Vec3; 3]]>;
+
+use std::sync::Arc;
+
+use glam::Vec3;
+
+use crate::camera::{View, box_distance};
+use crate::format::RepRecord;
+use crate::front::FrontIndex;
+use crate::skeleton::{RepId, Skeleton};
+
+/// What the culling did in one frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CullStats {
+    /// Front reps rasterised as occluders before the test.
+    pub occluders: u32,
+    /// Front reps left out as hidden.
+    pub occluded: u32,
+    /// Triangles rasterised this frame (both passes).
+    pub triangles: u64,
+    /// Time of both passes, in milliseconds (measured by the caller).
+    pub ms: f64,
+}
+
+/// The culler: its occluder store, its buffer and who was visible.
+#[derive(Debug)]
+pub struct OcclusionCuller {
+    store: OccluderStore,
+    buffer: Option<OcclusionBuffer>,
+    /// Frame number (from 1) in which each rep was last seen not hidden.
+    visible: Vec<u32>,
+    /// Frame number in which each rep's triangles went into the buffer.
+    rasterised: Vec<u32>,
+    frame: u32,
+    /// Reps drawn as themselves this frame and not yet in the buffer.
+    drawn: Vec<RepId>,
+    /// The eye of this frame's view.
+    eye: Vec3,
+    stats: CullStats,
+}
+
+impl OcclusionCuller {
+    /// A culler for `reps` reps whose occluder store holds at most
+    /// `store_bytes`.
+    pub fn new(reps: usize, store_bytes: u64) -> Self {
+        Self {
+            store: OccluderStore::new(store_bytes),
+            buffer: None,
+            visible: vec![0; reps],
+            rasterised: vec![0; reps],
+            frame: 0,
+            drawn: Vec::new(),
+            eye: Vec3::ZERO,
+            stats: CullStats::default(),
+        }
+    }
+
+    /// Bytes the occluder store holds now (never above its capacity).
+    pub fn store_bytes(&self) -> u64 {
+        self.store.bytes()
+    }
+
+    /// Pass 1: removes from `front` the reps hidden behind the occluders,
+    /// appending them to `hidden`.
+    pub fn cull(
+        &mut self,
+        view: &View,
+        skeleton: &Skeleton,
+        index: &FrontIndex,
+        front: &mut Vec<RepId>,
+        hidden: &mut Vec<RepId>,
+    ) {
+        self.frame += 1;
+        self.stats = CullStats::default();
+        self.drawn.clear();
+        self.eye = view.pose.position;
+        let buf = match &mut self.buffer {
+            Some(b) => {
+                b.reset(view);
+                b
+            }
+            None => self.buffer.insert(OcclusionBuffer::new(view)),
+        };
+        let (prev, now) = (self.frame - 1, self.frame);
+        // The occluders, nearest first: what is near hides most, and the
+        // tiles it covers turn the triangles behind away early.
+        let mut is_occluder = vec![false; front.len()];
+        let mut near: Vec<(f32, usize, Tris)> = Vec::new();
+        for (k, &r) in front.iter().enumerate() {
+            if self.visible[r as usize] != prev || prev == 0 {
+                continue;
+            }
+            if let Some(t) = self.store.get(r) {
+                let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
+                near.push((box_distance(view.pose.position, mn, mx), k, t));
+                is_occluder[k] = true;
+                self.rasterised[r as usize] = now;
+            }
+        }
+        near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for (_, _, t) in &near {
+            for &tri in t.iter() {
+                buf.add_triangle(tri);
+            }
+        }
+        self.stats.occluders = near.len() as u32;
+        let mut i = 0;
+        front.retain(|&r| {
+            let keep = is_occluder[i] || {
+                let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
+                !buf.box_occluded(mn, mx)
+            };
+            i += 1;
+            if !keep {
+                hidden.push(r);
+            }
+            keep
+        });
+        self.stats.occluded = hidden.len() as u32;
+    }
+
+    /// A rep drawn as itself this frame (a static rep's raw payload): its
+    /// occluder triangles are kept, and go into the buffer after the frame.
+    pub fn drawn(&mut self, r: RepId, rec: &RepRecord, payload: &Arc<[u8]>) {
+        if rec.is_vdt() || self.buffer.is_none() {
+            return;
+        }
+        self.store.insert_from(r, payload);
+        if self.rasterised[r as usize] != self.frame {
+            self.drawn.push(r);
+        }
+    }
+
+    /// Pass 2, after the frame: the visibility of `front` (the reps kept
+    /// by [`cull`](Self::cull)) against everything drawn.
+    pub fn end_frame(&mut self, skeleton: &Skeleton, index: &FrontIndex, front: &[RepId]) {
+        let Some(buf) = &mut self.buffer else {
+            return;
+        };
+        let now = self.frame;
+        let mut near: Vec<(f32, RepId, Tris)> = Vec::new();
+        for &r in &self.drawn {
+            if self.rasterised[r as usize] == now {
+                continue;
+            }
+            self.rasterised[r as usize] = now;
+            if let Some(t) = self.store.get(r) {
+                let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
+                near.push((box_distance(self.eye, mn, mx), r, t));
+            }
+        }
+        near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for (_, _, t) in &near {
+            for &tri in t.iter() {
+                buf.add_triangle(tri);
+            }
+        }
+        for &r in front {
+            let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
+            if !buf.box_occluded(mn, mx) {
+                self.visible[r as usize] = now;
+            }
+        }
+        self.stats.triangles = buf.triangles;
+    }
+
+    /// This frame's counts (the caller adds the time).
+    pub fn stats(&self) -> CullStats {
+        self.stats
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,154 @@
+//! P_R's occluder triangles: each drawn rep's largest triangles, kept in
+//! least-recently-used order under a byte capacity that comes out of the
+//! footprint.
+
+use std::sync::Arc;
+
+use glam::Vec3;
+use lru::LruCache;
+
+use crate::format::{PackedVertex, REP_MAGIC, RepHeader};
+use crate::skeleton::RepId;
+
+/// Most occluder triangles kept per rep.
+pub const MAX_TRIS: usize = 32;
+/// A triangle counts as an occluder when its area is at least this share
+/// of the square of its rep's box diagonal.
+const MIN_AREA_SHARE: f32 = 1e-3;
+/// Bytes charged per entry on top of its triangles.
+const ENTRY_BYTES: u64 = 64;
+
+type Tris = Arc<[[Vec3; 3]]>;
+
+/// The largest triangles of a raw rep payload, largest first (none from a
+/// payload that is not a raw mesh rep; indices out of range are skipped).
+pub fn occluder_triangles(payload: &[u8]) -> Vec<[Vec3; 3]> {
+    let hs = size_of::<RepHeader>();
+    if payload.len() < hs {
+        return Vec::new();
+    }
+    let h: RepHeader = bytemuck::pod_read_unaligned(&payload[..hs]);
+    let (vc, ic) = (h.vertex_count as usize, h.index_count as usize);
+    let vs = size_of::<PackedVertex>();
+    let isz = if vc <= 1 << 16 { 2 } else { 4 };
+    if h.magic != REP_MAGIC || payload.len() < hs + vc * vs + ic * isz {
+        return Vec::new();
+    }
+    let pos = |v: usize| -> Vec3 {
+        let pv: PackedVertex =
+            bytemuck::pod_read_unaligned(&payload[hs + v * vs..hs + v * vs + vs]);
+        Vec3::from_array(std::array::from_fn(|a| {
+            h.quant_min[a] + f32::from(pv.position[a]) * h.quant_scale[a]
+        }))
+    };
+    let ib = &payload[hs + vc * vs..];
+    let index = |i: usize| -> usize {
+        if isz == 2 {
+            usize::from(u16::from_le_bytes([ib[2 * i], ib[2 * i + 1]]))
+        } else {
+            u32::from_le_bytes([ib[4 * i], ib[4 * i + 1], ib[4 * i + 2], ib[4 * i + 3]]) as usize
+        }
+    };
+    let diag = Vec3::from_array(h.quant_scale).length() * 65535.0;
+    let min_area = MIN_AREA_SHARE * diag * diag;
+    let mut best: Vec<(f32, [Vec3; 3])> = Vec::new();
+    for t in 0..ic / 3 {
+        let v = [index(3 * t), index(3 * t + 1), index(3 * t + 2)];
+        if v.iter().any(|&i| i >= vc) {
+            continue;
+        }
+        let p = v.map(pos);
+        let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+        if area.is_finite() && area >= min_area {
+            best.push((area, p));
+        }
+    }
+    // Largest first; ties by position in the mesh (stable sort).
+    best.sort_by(|a, b| b.0.total_cmp(&a.0));
+    best.truncate(MAX_TRIS);
+    best.into_iter().map(|(_, p)| p).collect()
+}
+
+/// The occluder triangles of recently drawn reps.
+#[derive(Debug)]
+pub struct OccluderStore {
+    entries: LruCache<RepId, Tris>,
+    bytes: u64,
+    capacity: u64,
+}
+
+impl OccluderStore {
+    /// A store of at most `capacity` bytes.
+    pub fn new(capacity: u64) -> Self {
+        Self {
+            entries: LruCache::unbounded(),
+            bytes: 0,
+            capacity,
+        }
+    }
+
+    fn cost(t: &Tris) -> u64 {
+        ENTRY_BYTES + (t.len() * size_of::<[Vec3; 3]>()) as u64
+    }
+
+    /// Bytes held.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    /// Rep `r`'s triangles, if held (marked as recently used).
+    pub fn get(&mut self, r: RepId) -> Option<Tris> {
+        self.entries.get(&r).cloned()
+    }
+
+    /// Keeps rep `r`'s occluders, taken from its raw payload, unless held;
+    /// the least recently used entries make room.
+    pub fn insert_from(&mut self, r: RepId, payload: &[u8]) {
+        if self.entries.get(&r).is_some() {
+            return;
+        }
+        let tris: Tris = occluder_triangles(payload).into();
+        let cost = Self::cost(&tris);
+        if cost > self.capacity {
+            return;
+        }
+        while self.bytes + cost > self.capacity {
+            match self.entries.pop_lru() {
+                Some((_, t)) => self.bytes -= Self::cost(&t),
+                None => break,
+            }
+        }
+        self.bytes += cost;
+        self.entries.put(r, tris);
+    }
+
+    /// Entries held.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Whether nothing is held.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// The byte count matches the entries and stays within the capacity.
+    pub fn validate(&self) -> Result<(), String> {
+        let sum: u64 = self.entries.iter().map(|(_, t)| Self::cost(t)).sum();
+        if sum != self.bytes {
+            return Err(format!(
+                "store counts {} bytes, entries hold {sum}",
+                self.bytes
+            ));
+        }
+        if self.bytes > self.capacity {
+            return Err(format!(
+                "store holds {} bytes over {}",
+                self.bytes, self.capacity
+            ));
+        }
+        Ok(())
+    }
+}
+
+const _: () = assert!(size_of::<[Vec3; 3]>() == 36);
