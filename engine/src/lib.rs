@@ -52,6 +52,7 @@ pub mod clock;
 pub mod disk;
 pub mod format;
 pub mod front;
+pub mod governor;
 pub mod image;
 pub mod interior;
 pub mod io;

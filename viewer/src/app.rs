@@ -69,6 +69,7 @@ fn initial_settings(a: &Args) -> Result<Settings> {
         params,
         colouring,
         disk,
+        occlusion: true,
     })
 }
 

@@ -23,6 +23,8 @@ pub struct Settings {
     pub params: RuntimeParams,
     pub colouring: Colouring,
     pub disk: Option<DiskModel>,
+    /// Occlusion culling, its occluder store a sixteenth of the budget.
+    pub occlusion: bool,
 }
 
 /// An open scene with its walkthrough.
@@ -208,9 +210,11 @@ fn start_walk(t: &Target<'_>, s: &Settings) -> Result<Walkthrough> {
         .try_clone()
         .and_then(|f| scene_source(f, model))
         .with_context(|| t.path.display().to_string())?;
+    let budget_bytes = budget(t.data_bytes, s.budget_fraction);
     let params = RuntimeParams {
         mode: s.mode,
-        budget_bytes: budget(t.data_bytes, s.budget_fraction),
+        budget_bytes,
+        occlusion_bytes: if s.occlusion { budget_bytes / 16 } else { 0 },
         ..s.params
     };
     Ok(Walkthrough::start(t.skel.clone(), source, params)?)

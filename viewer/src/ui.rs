@@ -129,10 +129,12 @@ pub fn draw(
                     m.wait_ms
                 ));
                 ui.label(format!(
-                    "front {} reps, {:.2} M tris, {:.2} MB",
+                    "front {} reps, {:.2} M tris, {:.2} MB at ε {:.2} px; {} hidden (occlusion)",
                     m.front_reps,
                     m.front_tris as f64 / 1e6,
-                    m.front_bytes as f64 / 1e6
+                    m.front_bytes as f64 / 1e6,
+                    m.tolerance_px,
+                    m.occluded_reps
                 ));
                 ui.label(format!(
                     "resident {:.1} / {:.1} MiB, GPU {:.1} MiB",
@@ -176,6 +178,10 @@ pub fn draw(
             ui.add(egui::Slider::new(&mut pct, 0.5..=100.0).logarithmic(true).text("budget %"));
             s.budget_fraction = pct / 100.0;
             ui.add(egui::Slider::new(&mut s.params.tolerance_px, 0.25..=32.0).logarithmic(true).text("ε px"));
+            ui.checkbox(&mut s.occlusion, "occlusion culling");
+            let mut governed = s.params.governor.is_some();
+            ui.checkbox(&mut governed, "quality governor (raise ε to fit the budget)");
+            s.params.governor = governed.then(|| s.params.governor.unwrap_or_default());
             let p = &mut s.params.prefetch;
             ui.add(egui::Slider::new(&mut p.margin_deg, 0.0..=60.0).text("F_I margin °"));
             ui.add(egui::Slider::new(&mut p.delta_px, 0.0..=128.0).text("δ px (0 = 4ε)"));

@@ -30,6 +30,13 @@ pub use store::{OccluderStore, occluder_triangles};
 
 type Tris = Arc<[[Vec3; 3]]>;
 
+/// A drawn rep whose node box spans fewer pixels is not kept as an
+/// occluder: it hides little, and scanning its triangles costs as much.
+const MIN_OCCLUDER_PX: f32 = 24.0;
+/// Triangles scanned for occluders per frame, at most (a bound on the
+/// frame after a jump, when every rep is new).
+const SCAN_PER_FRAME: u64 = 1 << 21;
+
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -59,13 +66,20 @@ pub struct OcclusionCuller {
     buffer: Option<OcclusionBuffer>,
     /// Frame number (from 1) in which each rep was last seen not hidden.
     visible: Vec<u32>,
-    /// Frame number in which each rep's triangles went into the buffer.
+    /// Pass in which each rep's triangles went into the buffer.
     rasterised: Vec<u32>,
     frame: u32,
+    /// Pass 1 may run more than once a frame (the governor tries several
+    /// tolerances); each run starts a new buffer.
+    pass: u32,
     /// Reps drawn as themselves this frame and not yet in the buffer.
     drawn: Vec<RepId>,
-    /// The eye of this frame's view.
+    /// The eye of this frame's view, its pixels per radian and near plane.
     eye: Vec3,
+    ppr: f32,
+    near: f32,
+    /// Triangles scanned for occluders this frame.
+    scanned: u64,
     stats: CullStats,
 }
 
@@ -79,8 +93,12 @@ impl OcclusionCuller {
             visible: vec![0; reps],
             rasterised: vec![0; reps],
             frame: 0,
+            pass: 0,
             drawn: Vec::new(),
             eye: Vec3::ZERO,
+            ppr: 1.0,
+            near: 1.0,
+            scanned: 0,
             stats: CullStats::default(),
         }
     }
@@ -90,8 +108,20 @@ impl OcclusionCuller {
         self.store.bytes()
     }
 
+    /// Starts a frame seen from `view`.
+    pub fn begin_frame(&mut self, view: &View) {
+        self.frame += 1;
+        self.drawn.clear();
+        self.eye = view.pose.position;
+        self.ppr = view.pixels_per_radian();
+        self.near = view.near;
+        self.scanned = 0;
+    }
+
     /// Pass 1: removes from `front` the reps hidden behind the occluders,
-    /// appending them to `hidden`.
+    /// appending them to `hidden`. Called after
+    /// [`begin_frame`](Self::begin_frame), once or more (the last call's
+    /// front is the one drawn).
     pub fn cull(
         &mut self,
         view: &View,
@@ -100,10 +130,8 @@ impl OcclusionCuller {
         front: &mut Vec<RepId>,
         hidden: &mut Vec<RepId>,
     ) {
-        self.frame += 1;
+        self.pass += 1;
         self.stats = CullStats::default();
-        self.drawn.clear();
-        self.eye = view.pose.position;
         let buf = match &mut self.buffer {
             Some(b) => {
                 b.reset(view);
@@ -111,7 +139,7 @@ impl OcclusionCuller {
             }
             None => self.buffer.insert(OcclusionBuffer::new(view)),
         };
-        let (prev, now) = (self.frame - 1, self.frame);
+        let (prev, now) = (self.frame - 1, self.pass);
         // The occluders, nearest first: what is near hides most, and the
         // tiles it covers turn the triangles behind away early.
         let mut is_occluder = vec![false; front.len()];
@@ -120,7 +148,7 @@ impl OcclusionCuller {
             if self.visible[r as usize] != prev || prev == 0 {
                 continue;
             }
-            if let Some(t) = self.store.get(r) {
+            if let Some(t) = self.store.get(r, self.frame) {
                 let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
                 near.push((box_distance(view.pose.position, mn, mx), k, t));
                 is_occluder[k] = true;
@@ -147,16 +175,29 @@ impl OcclusionCuller {
             keep
         });
         self.stats.occluded = hidden.len() as u32;
+        self.stats.triangles = buf.triangles;
     }
 
-    /// A rep drawn as itself this frame (a static rep's raw payload): its
-    /// occluder triangles are kept, and go into the buffer after the frame.
-    pub fn drawn(&mut self, r: RepId, rec: &RepRecord, payload: &Arc<[u8]>) {
+    /// A rep drawn as itself this frame (a static rep's raw payload, its
+    /// node's box): its occluder triangles are kept (when the box is large
+    /// on the screen), and go into the buffer after the frame.
+    pub fn drawn(&mut self, r: RepId, rec: &RepRecord, payload: &Arc<[u8]>, bbox: (Vec3, Vec3)) {
         if rec.is_vdt() || self.buffer.is_none() {
             return;
         }
-        self.store.insert_from(r, payload);
-        if self.rasterised[r as usize] != self.frame {
+        if !self.store.contains(r) {
+            let (mn, mx) = bbox;
+            let dist = box_distance(self.eye, mn, mx).max(self.near);
+            let tris = u64::from(rec.tri_count);
+            if (mx - mn).length() * self.ppr / dist < MIN_OCCLUDER_PX
+                || self.scanned + tris > SCAN_PER_FRAME
+            {
+                return;
+            }
+            self.scanned += tris;
+            self.store.insert_from(r, payload, self.frame);
+        }
+        if self.rasterised[r as usize] != self.pass {
             self.drawn.push(r);
         }
     }
@@ -167,14 +208,14 @@ impl OcclusionCuller {
         let Some(buf) = &mut self.buffer else {
             return;
         };
-        let now = self.frame;
+        let (now, frame) = (self.pass, self.frame);
         let mut near: Vec<(f32, RepId, Tris)> = Vec::new();
         for &r in &self.drawn {
             if self.rasterised[r as usize] == now {
                 continue;
             }
             self.rasterised[r as usize] = now;
-            if let Some(t) = self.store.get(r) {
+            if let Some(t) = self.store.get(r, self.frame) {
                 let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
                 near.push((box_distance(self.eye, mn, mx), r, t));
             }
@@ -188,7 +229,7 @@ impl OcclusionCuller {
         for &r in front {
             let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
             if !buf.box_occluded(mn, mx) {
-                self.visible[r as usize] = now;
+                self.visible[r as usize] = frame;
             }
         }
         self.stats.triangles = buf.triangles;

@@ -72,7 +72,8 @@ pub fn occluder_triangles(payload: &[u8]) -> Vec<[Vec3; 3]> {
 /// The occluder triangles of recently drawn reps.
 #[derive(Debug)]
 pub struct OccluderStore {
-    entries: LruCache<RepId, Tris>,
+    /// Each rep's triangles and the frame it was last used in.
+    entries: LruCache<RepId, (Tris, u32)>,
     bytes: u64,
     capacity: u64,
 }
@@ -96,15 +97,23 @@ impl OccluderStore {
         self.bytes
     }
 
-    /// Rep `r`'s triangles, if held (marked as recently used).
-    pub fn get(&mut self, r: RepId) -> Option<Tris> {
-        self.entries.get(&r).cloned()
+    /// Rep `r`'s triangles, if held (marked as used in `frame`).
+    pub fn get(&mut self, r: RepId, frame: u32) -> Option<Tris> {
+        self.entries.get_mut(&r).map(|e| {
+            e.1 = frame;
+            e.0.clone()
+        })
     }
 
-    /// Keeps rep `r`'s occluders, taken from its raw payload, unless held;
-    /// the least recently used entries make room.
-    pub fn insert_from(&mut self, r: RepId, payload: &[u8]) {
-        if self.entries.get(&r).is_some() {
+    /// Whether rep `r`'s triangles are held (not marked as used).
+    pub fn contains(&self, r: RepId) -> bool {
+        self.entries.contains(&r)
+    }
+
+    /// Keeps rep `r`'s occluders, taken from its raw payload, unless held
+    /// (used in `frame`); the least recently used entries make room.
+    pub fn insert_from(&mut self, r: RepId, payload: &[u8], frame: u32) {
+        if self.get(r, frame).is_some() {
             return;
         }
         let tris: Tris = occluder_triangles(payload).into();
@@ -114,12 +123,12 @@ impl OccluderStore {
         }
         while self.bytes + cost > self.capacity {
             match self.entries.pop_lru() {
-                Some((_, t)) => self.bytes -= Self::cost(&t),
+                Some((_, (t, _))) => self.bytes -= Self::cost(&t),
                 None => break,
             }
         }
         self.bytes += cost;
-        self.entries.put(r, tris);
+        self.entries.put(r, (tris, frame));
     }
 
     /// Entries held.
@@ -134,7 +143,7 @@ impl OccluderStore {
 
     /// The byte count matches the entries and stays within the capacity.
     pub fn validate(&self) -> Result<(), String> {
-        let sum: u64 = self.entries.iter().map(|(_, t)| Self::cost(t)).sum();
+        let sum: u64 = self.entries.iter().map(|(_, (t, _))| Self::cost(t)).sum();
         if sum != self.bytes {
             return Err(format!(
                 "store counts {} bytes, entries hold {sum}",

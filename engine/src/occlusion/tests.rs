@@ -18,17 +18,17 @@ fn the_store_stays_within_its_bytes() {
     let per = 64 + 2 * 36;
     let mut s = OccluderStore::new(3 * per + 10);
     for r in 0..10 {
-        s.insert_from(r, &payload);
+        s.insert_from(r, &payload, r);
         s.validate().unwrap();
         assert!(s.bytes() <= 3 * per + 10);
     }
     assert_eq!(s.len(), 3);
     // The most recent three are held; a read marks an entry as used.
-    assert!(s.get(7).is_some() && s.get(9).is_some());
-    s.insert_from(10, &payload);
-    assert!(s.get(7).is_some() && s.get(8).is_none());
+    assert!(s.get(7, 10).is_some() && s.get(9, 10).is_some());
+    s.insert_from(10, &payload, 10);
+    assert!(s.get(7, 10).is_some() && s.get(8, 10).is_none());
     // A store too small for one entry holds nothing.
     let mut tiny = OccluderStore::new(10);
-    tiny.insert_from(0, &payload);
+    tiny.insert_from(0, &payload, 0);
     assert!(tiny.is_empty());
 }

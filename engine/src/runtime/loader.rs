@@ -209,8 +209,11 @@ impl Loader {
                     turn_rad,
                     front,
                     hidden,
+                    tolerance_px,
                 } => {
+                    self.set_tolerance(tolerance_px);
                     self.classes.set_hidden(&hidden);
+                    self.keep_hidden(&hidden);
                     self.pacing
                         .on_fetch(self.clock.now(), f64::from(self.params.frame_period_s));
                     self.wait_fetch = false;
@@ -228,6 +231,33 @@ impl Loader {
                 Cmd::Shutdown => return,
             }
         }
+    }
+
+    /// The front reps occlusion culling hid are still the view's front at
+    /// ε: a resident one is touched (before this Stage II's mark, so a
+    /// prefetch may still evict it) and no longer speculative, so that
+    /// prefetching does not churn through them under the speculative cap.
+    fn keep_hidden(&mut self, hidden: &[RepId]) {
+        for &r in hidden {
+            if self.res.contains(r) {
+                self.res.access(r);
+                self.res.set_speculative(r, false);
+            }
+        }
+    }
+
+    /// The governor changed the tolerance: the bins and the classification
+    /// follow it.
+    fn set_tolerance(&mut self, tol: f32) {
+        if tol == self.params.tolerance_px {
+            return;
+        }
+        self.params.tolerance_px = tol;
+        self.classes.rebin(Bins::new(
+            self.params.prefetch.bins,
+            self.params.delta(),
+            tol,
+        ));
     }
 
     /// Classifies the front of `view` for prefetching (when it moved), and

@@ -22,6 +22,7 @@
 mod fault_tests;
 mod loader;
 pub mod resident;
+mod select;
 #[cfg(test)]
 mod tests;
 mod trees;
@@ -34,9 +35,9 @@ use crossbeam_channel::{Receiver, Sender, bounded};
 
 use crate::camera::{Pose, View};
 use crate::front::FrontIndex;
+use crate::governor::GovernorParams;
 use crate::io::ByteSource;
 use crate::metrics::{FrameMetrics, LoaderCounters};
-use crate::occlusion::OcclusionCuller;
 use crate::render::Renderer;
 use crate::skeleton::{RepId, Skeleton};
 
@@ -158,6 +159,9 @@ pub struct RuntimeParams {
     /// taken out of `budget_bytes` (P_I's reps get the rest). See
     /// [`crate::occlusion`].
     pub occlusion_bytes: u64,
+    /// The quality governor (`None`: off; the front is always computed at
+    /// `tolerance_px`). In `incore` mode only its triangle target applies.
+    pub governor: Option<GovernorParams>,
 }
 
 impl Default for RuntimeParams {
@@ -177,6 +181,7 @@ impl Default for RuntimeParams {
             coalesce_max_gap: 1 << 20,
             stall_deadline_s: 0.0,
             occlusion_bytes: 0,
+            governor: None,
         }
     }
 }
@@ -224,6 +229,12 @@ impl RuntimeParams {
         if self.mode != Mode::Incore && self.occlusion_bytes > self.budget_bytes / 2 {
             return bad("the occluder store may take at most half the budget");
         }
+        if let Some(g) = &self.governor {
+            g.check().map_err(RuntimeError::Params)?;
+            if g.max_tolerance_px < self.tolerance_px {
+                return bad("the governor's largest tolerance is below the tolerance");
+            }
+        }
         if self.block_bytes < 512 {
             return bad("block size must be at least 512 bytes");
         }
@@ -266,7 +277,8 @@ impl RuntimeParams {
     }
 
     fn delta(&self) -> f32 {
-        if self.prefetch.delta_px > 0.0 {
+        // (Above the tolerance; the governor may raise it past a given δ.)
+        if self.prefetch.delta_px > self.tolerance_px {
             self.prefetch.delta_px
         } else {
             4.0 * self.tolerance_px
@@ -282,6 +294,8 @@ enum Cmd {
         front: Arc<Vec<RepId>>,
         /// Reps of the view's front that occlusion culling left out.
         hidden: Arc<Vec<RepId>>,
+        /// The tolerance the front was computed for (the governor's).
+        tolerance_px: f32,
     },
     /// P_R cannot use this rep (a view-dependence tree whose store failed).
     Unusable(RepId),
@@ -314,7 +328,6 @@ enum Reply {
 /// P_R: drives frames against a running P_I.
 pub struct Walkthrough {
     skeleton: Arc<Skeleton>,
-    index: Arc<FrontIndex>,
     params: RuntimeParams,
     cmd: Sender<Cmd>,
     replies: Receiver<Reply>,
@@ -323,7 +336,10 @@ pub struct Walkthrough {
     frame: u32,
     last_pose: Option<Pose>,
     trees: trees::Trees,
-    occlusion: Option<OcclusionCuller>,
+    /// Stage I: the front, occlusion culling, the quality governor.
+    select: select::FrontSelect,
+    /// The tolerance of the frame being drawn.
+    frame_tol: f32,
 }
 
 impl std::fmt::Debug for Walkthrough {
@@ -409,7 +425,6 @@ impl Walkthrough {
         Ok(Self {
             drawn_stamp: vec![0; skeleton.reps.len()],
             skeleton,
-            index,
             params,
             cmd: cmd_tx,
             replies: reply_rx,
@@ -417,8 +432,20 @@ impl Walkthrough {
             frame: 0,
             last_pose: None,
             trees,
-            occlusion: (params.occlusion_bytes > 0)
-                .then(|| OcclusionCuller::new(skeleton_reps, params.occlusion_bytes)),
+            select: select::FrontSelect::new(
+                index.clone(),
+                skeleton_reps,
+                params.occlusion_bytes,
+                params.governor,
+                params.tolerance_px,
+                // In core nothing is loaded: only a triangle target applies.
+                if params.mode == Mode::Incore {
+                    u64::MAX
+                } else {
+                    loader_params.budget_bytes
+                },
+            ),
+            frame_tol: params.tolerance_px,
         })
     }
 
@@ -464,21 +491,9 @@ impl Walkthrough {
         let pose = front_pose;
         let t0 = Instant::now();
         let view = self.view(pose);
-        let mut front = Vec::new();
-        let fs = self.index.compute(
-            &view,
-            &view.frustum(0.0),
-            self.params.tolerance_px,
-            &mut front,
-        );
-        let front_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let mut hidden = Vec::new();
-        let mut occlusion_ms = 0.0;
-        if let Some(c) = &mut self.occlusion {
-            let t = Instant::now();
-            c.cull(&view, &self.skeleton, &self.index, &mut front, &mut hidden);
-            occlusion_ms = t.elapsed().as_secs_f64() * 1e3;
-        }
+        let sel = self.select.select(&self.skeleton, &view);
+        let (front, hidden) = (sel.front, sel.hidden);
+        self.frame_tol = sel.tolerance_px;
         let turn_rad = self.last_pose.map_or(0.0, |p| p.angle_to(pose));
         self.last_pose = Some(*pose);
         let front = Arc::new(front);
@@ -488,6 +503,7 @@ impl Walkthrough {
                 turn_rad,
                 front: front.clone(),
                 hidden: Arc::new(hidden),
+                tolerance_px: sel.tolerance_px,
             })
             .map_err(|_| RuntimeError::LoaderGone)?;
         self.frame += 1;
@@ -495,10 +511,13 @@ impl Walkthrough {
         let mut m = FrameMetrics {
             frame: self.frame - 1,
             mode: self.params.mode.name(),
-            front_ms,
+            front_ms: sel.front_ms,
+            occlusion_ms: sel.occlusion_ms,
+            tolerance_px: f64::from(sel.tolerance_px),
+            front_tries: sel.tries,
             front_reps: front.len() as u32,
             budget_bytes: self.params.budget_bytes,
-            nodes_visited: fs.nodes_visited,
+            nodes_visited: sel.nodes_visited,
             ..Default::default()
         };
         for &r in front.iter() {
@@ -542,17 +561,7 @@ impl Walkthrough {
             }
         };
         renderer.end_frame();
-        if let Some(c) = &mut self.occlusion {
-            let t = Instant::now();
-            c.end_frame(&self.skeleton, &self.index, &front);
-            occlusion_ms += t.elapsed().as_secs_f64() * 1e3;
-            let cs = c.stats();
-            m.occluders = cs.occluders;
-            m.occluded_reps = cs.occluded;
-            m.occluder_tris = cs.triangles;
-            m.occluder_bytes = c.store_bytes();
-        }
-        m.occlusion_ms = occlusion_ms;
+        self.select.end_frame(&self.skeleton, &front, &mut m);
         for r in unusable {
             self.cmd
                 .send(Cmd::Unusable(r))
@@ -594,7 +603,7 @@ impl Walkthrough {
             let before = tf.tris;
             if self
                 .trees
-                .draw(rep, &payload, view, self.params.tolerance_px, renderer, tf)
+                .draw(rep, &payload, view, self.frame_tol, renderer, tf)
             {
                 m.drawn_reps += 1;
                 m.drawn_tris += tf.tris - before;
@@ -609,10 +618,8 @@ impl Walkthrough {
         } else {
             m.substituted += 1;
         }
-        if rep == for_rep
-            && let Some(c) = &mut self.occlusion
-        {
-            c.drawn(rep, rec, &payload);
+        if rep == for_rep {
+            self.select.drawn(rep, rec, &payload);
         }
         if self.drawn_stamp[rep as usize] != stamp {
             self.drawn_stamp[rep as usize] = stamp;

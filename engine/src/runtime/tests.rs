@@ -66,11 +66,13 @@ pub(super) fn pose(x: f32, y: f32, z: f32, yaw: f32) -> Pose {
 
 pub(super) fn check_frames(frames: &[FrameMetrics], budget: u64) {
     for f in frames {
+        // P_I's reps and P_R's occluder store share the footprint.
         assert!(
-            f.loader.max_resident_bytes <= budget,
-            "frame {}: {} > {budget}",
+            f.loader.max_resident_bytes + f.occluder_bytes <= budget,
+            "frame {}: {} + {} > {budget}",
             f.frame,
-            f.loader.max_resident_bytes
+            f.loader.max_resident_bytes,
+            f.occluder_bytes
         );
         assert!(f.loader.resident_bytes <= budget);
         assert_eq!(
@@ -129,6 +131,8 @@ proptest! {
         // A stall deadline (s) on a disk with 0.2 ms seeks, or none.
         deadline in prop_oneof![Just(0.0f32), 0.0001f32..0.001],
         compressed in any::<bool>(),
+        occlusion in any::<bool>(),
+        governor in any::<bool>(),
     ) {
         let (skel, src) = if compressed { wide_compressed(64) } else { wide(64) };
         let total: u64 = skel.reps.iter().map(|r| r.resident_len()).sum();
@@ -140,7 +144,15 @@ proptest! {
         } else {
             src
         };
-        let p = RuntimeParams { stall_deadline_s: deadline, ..params(mode, budget) };
+        // The occluder store comes out of the footprint: P_I keeps enough
+        // for the root's rep.
+        let occlusion_bytes = if occlusion { ((budget - root) / 2).min(budget / 8) } else { 0 };
+        let p = RuntimeParams {
+            stall_deadline_s: deadline,
+            occlusion_bytes,
+            governor: governor.then(crate::governor::GovernorParams::default),
+            ..params(mode, budget)
+        };
         let mut walk = Walkthrough::start(skel, src, p).unwrap();
         let mut r = NoneRenderer::new(0.0);
         // A random walk, with jumps, along and around the row of leaves.
@@ -681,4 +693,49 @@ fn a_stall_deadline_draws_ancestors_for_what_is_late_and_loads_it_after_the_fram
         ..params(Mode::Pre, total)
     };
     assert!(matches!(bad.check(), Err(RuntimeError::Params(_))));
+}
+
+/// A still camera over a front that does not fit: the governor raises ε
+/// until it does and stays there, with no substitute; without it, the
+/// front's reps that find no room are substituted.
+#[test]
+fn the_governor_fits_the_front_and_settles_on_a_still_camera() {
+    let (skel, src) = wide(64);
+    let total: u64 = skel.reps.iter().map(|r| r.resident_len()).sum();
+    let pose = Pose::look_at(Vec3::new(32.0, 2.0, 6.0), Vec3::new(32.0, 0.0, 0.0), 90.0);
+    let run = |governor: bool, budget: u64| {
+        let p = RuntimeParams {
+            tolerance_px: 0.05,
+            governor: governor.then(crate::governor::GovernorParams::default),
+            ..params(Mode::NoPre, budget)
+        };
+        let mut walk = Walkthrough::start(skel.clone(), src.clone(), p).unwrap();
+        let mut r = NoneRenderer::new(0.0);
+        let frames = run_path(&mut walk, &[pose; 40], &mut r, 0.0).unwrap();
+        check_frames(&frames, budget);
+        frames
+    };
+    // Half of what the front at ε needs.
+    let budget = run(false, total)[0].front_bytes / 2;
+    let plain = run(false, budget);
+    assert!(plain.iter().all(|f| f.tolerance_px == f64::from(0.05f32)));
+    assert!(
+        plain.last().unwrap().substituted > 0,
+        "the front must not fit"
+    );
+    let governed = run(true, budget);
+    let last = &governed[30..];
+    assert!(
+        last.iter().all(|f| f.tolerance_px == last[0].tolerance_px),
+        "settled"
+    );
+    assert!(last[0].tolerance_px > f64::from(0.05f32));
+    assert!(
+        last.iter().all(|f| f.substituted == 0),
+        "no substitutes once it fits"
+    );
+    assert!(
+        last.iter()
+            .all(|f| f.front_bytes as f64 <= 0.8 * budget as f64)
+    );
 }

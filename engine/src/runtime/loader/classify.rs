@@ -56,6 +56,13 @@ impl Classifier {
         }
     }
 
+    /// New bins (another tolerance): the next view is classified afresh.
+    pub(super) fn rebin(&mut self, bins: Bins) {
+        self.bins = bins;
+        self.view = None;
+        self.generation += 1;
+    }
+
     /// Whether occlusion culling left rep `r` out of this fetch's front.
     pub(super) fn is_hidden(&self, r: RepId) -> bool {
         self.hidden[r as usize] == self.hidden_stamp

@@ -148,6 +148,13 @@ struct Args {
     /// occluder store takes (P_I's reps get the rest), e.g. 0.05.
     #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 0.5))]
     occlusion: f32,
+    /// The quality governor: raise ε for the whole frame when the front
+    /// does not fit the footprint (or --max-tris), instead of substituting.
+    #[arg(long)]
+    governor: bool,
+    /// The governor's triangle target for the front (0: none).
+    #[arg(long, default_value_t = 0)]
+    max_tris: u64,
 }
 
 fn main() -> ExitCode {
@@ -278,6 +285,10 @@ fn run(a: Args) -> Result<()> {
         vdt_pool_bytes: vdt_pool,
         coalesce_max_gap: coalesce_gap,
         stall_deadline_s: a.stall_deadline / 1e3,
+        governor: (a.governor || a.max_tris > 0).then_some(engine::governor::GovernorParams {
+            max_tris: a.max_tris,
+            ..Default::default()
+        }),
         ..RuntimeParams::default()
     };
     println!(

@@ -1,0 +1,131 @@
+//! Stage I on P_R: the front for a view — frustum and simplification
+//! culling (`front.rs`), then occlusion culling (`occlusion`), at the
+//! tolerance the quality governor (`governor.rs`) chooses.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use crate::camera::View;
+use crate::format::RepRecord;
+use crate::front::FrontIndex;
+use crate::governor::{FrontCost, Governor, GovernorParams};
+use crate::metrics::FrameMetrics;
+use crate::occlusion::OcclusionCuller;
+use crate::skeleton::{RepId, Skeleton};
+
+/// One frame's front.
+#[derive(Debug, Default)]
+pub(super) struct Selected {
+    pub(super) front: Vec<RepId>,
+    /// Front reps occlusion culling left out.
+    pub(super) hidden: Vec<RepId>,
+    /// The tolerance the front was computed for.
+    pub(super) tolerance_px: f32,
+    pub(super) nodes_visited: u32,
+    pub(super) front_ms: f64,
+    pub(super) occlusion_ms: f64,
+    /// Fronts computed (more than one when the governor searched).
+    pub(super) tries: u32,
+}
+
+/// Computes fronts; owns the occlusion culler and the governor.
+#[derive(Debug)]
+pub(super) struct FrontSelect {
+    index: Arc<FrontIndex>,
+    occlusion: Option<OcclusionCuller>,
+    governor: Option<Governor>,
+    tolerance_px: f32,
+    /// Bytes the front's reps may take (P_I's footprint).
+    capacity: u64,
+}
+
+impl FrontSelect {
+    pub(super) fn new(
+        index: Arc<FrontIndex>,
+        reps: usize,
+        occlusion_bytes: u64,
+        governor: Option<GovernorParams>,
+        tolerance_px: f32,
+        capacity: u64,
+    ) -> Self {
+        Self {
+            index,
+            occlusion: (occlusion_bytes > 0).then(|| OcclusionCuller::new(reps, occlusion_bytes)),
+            governor: governor.map(|g| Governor::new(g, tolerance_px)),
+            tolerance_px,
+            capacity,
+        }
+    }
+
+    /// The front at `tol`, occlusion-culled, into `out`.
+    fn compute(&mut self, s: &Skeleton, view: &View, tol: f32, out: &mut Selected) -> FrontCost {
+        out.front.clear();
+        out.hidden.clear();
+        out.tolerance_px = tol;
+        out.tries += 1;
+        let t = Instant::now();
+        let fs = self
+            .index
+            .compute(view, &view.frustum(0.0), tol, &mut out.front);
+        out.nodes_visited += fs.nodes_visited;
+        out.front_ms += t.elapsed().as_secs_f64() * 1e3;
+        if let Some(c) = &mut self.occlusion {
+            let t = Instant::now();
+            c.cull(view, s, &self.index, &mut out.front, &mut out.hidden);
+            out.occlusion_ms += t.elapsed().as_secs_f64() * 1e3;
+        }
+        let mut cost = FrontCost::default();
+        for &r in &out.front {
+            let rec = &s.reps[r as usize];
+            cost.bytes += rec.resident_len();
+            if !rec.is_vdt() {
+                cost.tris += u64::from(rec.tri_count);
+            }
+        }
+        cost
+    }
+
+    /// Stage I for `view`.
+    pub(super) fn select(&mut self, s: &Skeleton, view: &View) -> Selected {
+        if let Some(c) = &mut self.occlusion {
+            c.begin_frame(view);
+        }
+        let mut out = Selected::default();
+        let Some(mut g) = self.governor.take() else {
+            let tol = self.tolerance_px;
+            self.compute(s, view, tol, &mut out);
+            return out;
+        };
+        let capacity = self.capacity;
+        let eps = g.choose(capacity, |eps| self.compute(s, view, eps, &mut out));
+        if out.tolerance_px != eps {
+            // The last front tried was not the one chosen.
+            self.compute(s, view, eps, &mut out);
+        }
+        self.governor = Some(g);
+        out
+    }
+
+    /// A rep drawn as itself this frame (for the occluders).
+    pub(super) fn drawn(&mut self, r: RepId, rec: &RepRecord, payload: &Arc<[u8]>) {
+        if let Some(c) = &mut self.occlusion {
+            c.drawn(r, rec, payload, self.index.node_box(rec.node));
+        }
+    }
+
+    /// After the frame: the visibility of `front`, and the frame's
+    /// occlusion counts into `m`.
+    pub(super) fn end_frame(&mut self, s: &Skeleton, front: &[RepId], m: &mut FrameMetrics) {
+        let Some(c) = &mut self.occlusion else {
+            return;
+        };
+        let t = Instant::now();
+        c.end_frame(s, &self.index, front);
+        m.occlusion_ms += t.elapsed().as_secs_f64() * 1e3;
+        let cs = c.stats();
+        m.occluders = cs.occluders;
+        m.occluded_reps = cs.occluded;
+        m.occluder_tris = cs.triangles;
+        m.occluder_bytes = c.store_bytes();
+    }
+}
