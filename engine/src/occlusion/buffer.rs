@@ -158,14 +158,30 @@ impl OcclusionBuffer {
         b
     }
 
-    /// Empties the buffer for `view` (keeping its allocation).
+    /// Empties the buffer for `view` (keeping its allocation; the tiles'
+    /// samples beyond the viewport are worked out again only when its size
+    /// changes).
     pub fn reset(&mut self, view: &View) {
+        let same_size = (self.proj.view.width_px, self.proj.view.height_px)
+            == (view.width_px, view.height_px)
+            && !self.tiles.is_empty();
         self.proj = Projector::new(view);
+        self.levels.clear();
+        self.triangles = 0;
+        if same_size {
+            for t in &mut self.tiles {
+                *t = Tile {
+                    full: f32::INFINITY,
+                    mask: t.outside,
+                    layer: 0.0,
+                    outside: t.outside,
+                };
+            }
+            return;
+        }
         self.tw = view.width_px.div_ceil(TILE).max(1);
         self.th = view.height_px.div_ceil(TILE).max(1);
         self.tiles.clear();
-        self.levels.clear();
-        self.triangles = 0;
         let (w, h) = (view.width_px, view.height_px);
         for ty in 0..self.th {
             for tx in 0..self.tw {

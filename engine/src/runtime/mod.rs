@@ -516,17 +516,12 @@ impl Walkthrough {
             tolerance_px: f64::from(sel.tolerance_px),
             front_tries: sel.tries,
             front_reps: front.len() as u32,
+            front_bytes: sel.cost.bytes,
+            front_tris: sel.cost.tris,
             budget_bytes: self.params.budget_bytes,
             nodes_visited: sel.nodes_visited,
             ..Default::default()
         };
-        for &r in front.iter() {
-            let rec = &self.skeleton.reps[r as usize];
-            m.front_bytes += rec.resident_len();
-            if !rec.is_vdt() {
-                m.front_tris += u64::from(rec.tri_count);
-            }
-        }
         renderer.begin_frame(&self.view(draw_pose));
         let mut wait = 0.0;
         let mut tf = trees::TreeFrame::default();

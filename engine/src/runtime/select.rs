@@ -26,6 +26,8 @@ pub(super) struct Selected {
     pub(super) occlusion_ms: f64,
     /// Fronts computed (more than one when the governor searched).
     pub(super) tries: u32,
+    /// What the front's reps take (the last front computed).
+    pub(super) cost: FrontCost,
 }
 
 /// Computes fronts; owns the occlusion culler and the governor.
@@ -82,6 +84,7 @@ impl FrontSelect {
                 cost.tris += u64::from(rec.tri_count);
             }
         }
+        out.cost = cost;
         cost
     }
 
@@ -129,3 +132,6 @@ impl FrontSelect {
         m.occluder_bytes = c.store_bytes();
     }
 }
+
+#[cfg(test)]
+mod tests;
