@@ -143,24 +143,19 @@ impl OcclusionCuller {
         // The occluders, nearest first: what is near hides most, and the
         // tiles it covers turn the triangles behind away early.
         let mut is_occluder = vec![false; front.len()];
-        let mut near: Vec<(f32, usize, Tris)> = Vec::new();
+        let mut near: Vec<(f32, u32, Tris)> = Vec::new();
         for (k, &r) in front.iter().enumerate() {
             if self.visible[r as usize] != prev || prev == 0 {
                 continue;
             }
             if let Some(t) = self.store.get(r, self.frame) {
                 let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
-                near.push((box_distance(view.pose.position, mn, mx), k, t));
+                near.push((box_distance(view.pose.position, mn, mx), k as u32, t));
                 is_occluder[k] = true;
                 self.rasterised[r as usize] = now;
             }
         }
-        near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        for (_, _, t) in &near {
-            for &tri in t.iter() {
-                buf.add_triangle(tri);
-            }
-        }
+        rasterise_nearest_first(buf, &mut near);
         self.stats.occluders = near.len() as u32;
         let mut i = 0;
         front.retain(|&r| {
@@ -220,12 +215,7 @@ impl OcclusionCuller {
                 near.push((box_distance(self.eye, mn, mx), r, t));
             }
         }
-        near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        for (_, _, t) in &near {
-            for &tri in t.iter() {
-                buf.add_triangle(tri);
-            }
-        }
+        rasterise_nearest_first(buf, &mut near);
         for &r in front {
             let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
             if !buf.box_occluded(mn, mx) {
@@ -238,6 +228,18 @@ impl OcclusionCuller {
     /// This frame's counts (the caller adds the time).
     pub fn stats(&self) -> CullStats {
         self.stats
+    }
+}
+
+/// Rasterises occluders `(distance, tie-break key, triangles)`, nearest
+/// first: what is near hides most, and the tiles it covers turn the
+/// triangles behind away early.
+fn rasterise_nearest_first(buf: &mut OcclusionBuffer, near: &mut [(f32, u32, Tris)]) {
+    near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    for (_, _, t) in near.iter() {
+        for &tri in t.iter() {
+            buf.add_triangle(tri);
+        }
     }
 }
 
