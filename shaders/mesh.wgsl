@@ -15,9 +15,10 @@ struct Globals {
 };
 
 struct DrawData {
-    // xyz: world position of quantised 0; w unused.
+    // xyz: world position of quantised 0; w: a fade's progress t in [0, 1].
     quant_min: vec4<f32>,
-    // xyz: world size of one unorm16 step times 65535; w unused.
+    // xyz: world size of one unorm16 step times 65535; w: the fade's
+    // direction (0 opaque, 1 fading in, 2 fading out).
     quant_extent: vec4<f32>,
     // rgb: debug tint; a: how much of it replaces the vertex colour.
     tint: vec4<f32>,
@@ -37,7 +38,17 @@ struct VsOut {
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) color: vec3<f32>,
+    // x: fade progress, y: direction (see DrawData).
+    @location(3) @interpolate(flat) fade: vec2<f32>,
 };
+
+// The 4x4 ordered-dither threshold of a pixel, in (0, 1) (the same table
+// as engine::render::dither_threshold).
+fn dither_threshold(pixel: vec2<u32>) -> f32 {
+    var bayer = array<u32, 16>(0u, 8u, 2u, 10u, 12u, 4u, 14u, 6u, 3u, 11u, 1u, 9u, 15u, 7u, 13u, 5u);
+    let k = (pixel.y & 3u) * 4u + (pixel.x & 3u);
+    return (f32(bayer[k]) + 0.5) / 16.0;
+}
 
 @vertex
 fn vs_main(v: VsIn, @builtin(instance_index) draw: u32) -> VsOut {
@@ -48,6 +59,7 @@ fn vs_main(v: VsIn, @builtin(instance_index) draw: u32) -> VsOut {
     out.world = world;
     out.normal = v.normal.xyz;
     out.color = mix(v.color.rgb, d.tint.rgb, d.tint.a);
+    out.fade = vec2<f32>(d.quant_min.w, d.quant_extent.w);
     return out;
 }
 
@@ -61,5 +73,13 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
     // Headlight: two-sided, so that open CAD surfaces read from both sides.
     let lambert = abs(dot(n, to_eye));
     let shade = 0.2 + 0.8 * lambert;
+    // Screen-door fade: a rep fading in by t keeps the pixels whose
+    // threshold is below t, one fading out the others.
+    let threshold = dither_threshold(vec2<u32>(in.clip.xy));
+    let fading_in = in.fade.y > 0.5 && in.fade.y < 1.5;
+    let fading_out = in.fade.y > 1.5;
+    if (fading_in && threshold >= in.fade.x) || (fading_out && threshold < in.fade.x) {
+        discard;
+    }
     return vec4<f32>(in.color * shade, 1.0);
 }

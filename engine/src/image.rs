@@ -172,6 +172,37 @@ impl RgbaImage {
         })
     }
 
+    /// Pixels that differ from `other` beyond a one-pixel tolerance: a
+    /// pixel counts when no pixel of the other image within one pixel of
+    /// it (its 3×3 neighbourhood) matches its colour within `tolerance` on
+    /// every RGB channel, in either direction. A silhouette moved by one
+    /// pixel does not count; a member that vanished or a wrong colour does.
+    pub fn differing_beyond_one_pixel(&self, other: &RgbaImage, tolerance: u8) -> Option<u64> {
+        if (self.width, self.height) != (other.width, other.height) {
+            return None;
+        }
+        let (w, h) = (self.width as i64, self.height as i64);
+        let near = |a: &RgbaImage, b: &RgbaImage, x: i64, y: i64| {
+            let p = a.pixel(x as u32, y as u32);
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    let (qx, qy) = (x + dx, y + dy);
+                    qx >= 0 && qy >= 0 && qx < w && qy < h && {
+                        let q = b.pixel(qx as u32, qy as u32);
+                        (0..3).all(|c| p[c].abs_diff(q[c]) <= tolerance)
+                    }
+                })
+            })
+        };
+        let mut n = 0u64;
+        for y in 0..h {
+            for x in 0..w {
+                n += u64::from(!near(self, other, x, y) || !near(other, self, x, y));
+            }
+        }
+        Some(n)
+    }
+
     /// Fraction of pixels that differ from the colour of pixel (0, 0).
     pub fn coverage(&self) -> f64 {
         let bg = self.pixel(0, 0);
@@ -211,6 +242,36 @@ mod tests {
         assert_eq!(di.pixel(1, 0), [0, 0, 0, 255]);
         assert!(img.diff(&RgbaImage::filled(1, 1, [0; 4]), 0).is_none());
         assert!((img.coverage() - 1.0 / 35.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_one_pixel_shift_is_tolerated_a_missing_line_is_not() {
+        let bg = [0, 0, 0, 255];
+        let mut a = RgbaImage::filled(12, 10, bg);
+        let line = |img: &mut RgbaImage, x: usize| {
+            for y in 0..10 {
+                let i = 4 * (y * 12 + x);
+                img.data[i..i + 3].copy_from_slice(&[200, 100, 50]);
+            }
+        };
+        line(&mut a, 5);
+        let mut shifted = RgbaImage::filled(12, 10, bg);
+        line(&mut shifted, 6);
+        assert_eq!(a.differing_beyond_one_pixel(&shifted, 8), Some(0));
+        // A line two pixels over, or gone: its pixels and the old ones count.
+        let mut far = RgbaImage::filled(12, 10, bg);
+        line(&mut far, 7);
+        assert_eq!(a.differing_beyond_one_pixel(&far, 8), Some(20));
+        let empty = RgbaImage::filled(12, 10, bg);
+        assert_eq!(a.differing_beyond_one_pixel(&empty, 8), Some(10));
+        // Colours within the tolerance match.
+        let mut dim = a.clone();
+        dim.data[4 * 5] -= 8;
+        assert_eq!(a.differing_beyond_one_pixel(&dim, 8), Some(0));
+        assert!(
+            a.differing_beyond_one_pixel(&RgbaImage::filled(1, 1, bg), 8)
+                .is_none()
+        );
     }
 
     #[test]

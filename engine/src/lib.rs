@@ -50,6 +50,7 @@ pub mod cache;
 pub mod camera;
 pub mod clock;
 pub mod disk;
+pub mod fade;
 pub mod format;
 pub mod front;
 pub mod governor;

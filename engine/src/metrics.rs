@@ -213,6 +213,10 @@ frame_metrics! {
         /// choose it.
         tolerance_px: f64 => max,
         front_tries: u32,
+        /// Smooth LOD switches: front reps drawn fading in, and reps drawn
+        /// fading out (both resident; their triangles in `drawn_tris`).
+        fade_in: u32 => sum,
+        fade_out: u32 => sum,
         /// Misses whose node was in the previous front (an LOD switch).
         loader.miss_lod: u32 => sum,
         /// Misses whose ancestor or descendant node was (an HLOD switch).
@@ -541,7 +545,7 @@ mod tests {
         // the column list generated them (P_I's counters among P_R's).
         assert_eq!(
             CSV_HEADER,
-            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,occluders,occluded_reps,occluder_tris,occlusion_ms,occluder_bytes,tolerance_px,front_tries,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms,prefetch_noroom,prefetch_waits,idle_ms,lookahead_ms,coalesce_gap,expand_ms,expanded_bytes"
+            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,occluders,occluded_reps,occluder_tris,occlusion_ms,occluder_bytes,tolerance_px,front_tries,fade_in,fade_out,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms,prefetch_noroom,prefetch_waits,idle_ms,lookahead_ms,coalesce_gap,expand_ms,expanded_bytes"
         );
         let f = FrameMetrics {
             frame: 7,

@@ -17,9 +17,10 @@ use crate::skeleton::RepId;
 pub trait Renderer {
     /// Starts a frame.
     fn begin_frame(&mut self, view: &View);
-    /// Draws one rep (its raw payload as stored in the scene file);
-    /// `substitute` when it stands in for a missing front rep.
-    fn draw(&mut self, rep: RepId, record: &RepRecord, payload: &Arc<[u8]>, substitute: bool);
+    /// Draws one rep (its payload as P_I holds it), as `style` says: a
+    /// substitute for a missing front rep, or fading in or out (a rep
+    /// drawn fading out may be drawn again opaque in the same frame).
+    fn draw(&mut self, rep: RepId, record: &RepRecord, payload: &Arc<[u8]>, style: DrawStyle);
     /// P_I evicted `rep`: drop any copy of it (GPU memory follows the budget).
     fn evict(&mut self, _rep: RepId) {}
     /// Finishes the frame (presents, or waits for the GPU).
@@ -30,6 +31,55 @@ pub trait Renderer {
     }
     /// Short name for reports.
     fn name(&self) -> &'static str;
+}
+
+/// A screen-door fade (see [`crate::fade`]): of a 4×4 ordered-dither
+/// pattern, a rep fading in by `t` covers the pixels whose threshold is
+/// below `t`, a rep fading out by `t` exactly the others, so the two reps
+/// of a switch together cover every pixel once.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Fade {
+    #[default]
+    Opaque,
+    In(f32),
+    Out(f32),
+}
+
+impl Fade {
+    /// Whether the pixel of dither threshold `threshold` (in (0, 1)) is
+    /// drawn: the CPU statement of the shader's test.
+    pub fn covers(self, threshold: f32) -> bool {
+        match self {
+            Fade::Opaque => true,
+            Fade::In(t) => threshold < t,
+            Fade::Out(t) => threshold >= t,
+        }
+    }
+}
+
+/// The 4×4 ordered-dither (Bayer) threshold of pixel `(x, y)`, in (0, 1):
+/// the shader's `dither_threshold`.
+pub fn dither_threshold(x: u32, y: u32) -> f32 {
+    const BAYER: [u32; 16] = [0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5];
+    (BAYER[((y & 3) * 4 + (x & 3)) as usize] as f32 + 0.5) / 16.0
+}
+
+/// How one rep is drawn.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DrawStyle {
+    /// It stands in for a missing front rep (an ancestor).
+    pub substitute: bool,
+    pub fade: Fade,
+}
+
+impl DrawStyle {
+    /// Opaque; a substitute when `substitute`.
+    pub fn opaque(substitute: bool) -> Self {
+        Self {
+            substitute,
+            fade: Fade::Opaque,
+        }
+    }
 }
 
 /// Draws nothing; optionally takes `1 / tris_per_sec` seconds per triangle.
@@ -64,7 +114,7 @@ impl Renderer for NoneRenderer {
         self.debt = Duration::ZERO;
     }
 
-    fn draw(&mut self, _rep: RepId, record: &RepRecord, _payload: &Arc<[u8]>, _sub: bool) {
+    fn draw(&mut self, _rep: RepId, record: &RepRecord, _payload: &Arc<[u8]>, _style: DrawStyle) {
         self.frame_tris += u64::from(record.tri_count);
         if self.tris_per_sec > 0.0 {
             self.debt += crate::limits::duration_s(f64::from(record.tri_count) / self.tris_per_sec);
@@ -79,5 +129,39 @@ impl Renderer for NoneRenderer {
 
     fn name(&self) -> &'static str {
         "none"
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fade_in_and_its_fade_out_cover_every_pixel_once() {
+        let mut seen = [false; 16];
+        for y in 0..4 {
+            for x in 0..4 {
+                let t = dither_threshold(x, y);
+                let k = (t * 16.0 - 0.5).round() as usize;
+                assert!(!seen[k], "threshold {t} twice");
+                seen[k] = true;
+                // The pattern repeats every four pixels.
+                assert_eq!(t, dither_threshold(x + 4, y + 8));
+            }
+        }
+        for step in 0..=16 {
+            let t = step as f32 / 16.0;
+            let mut covered_in = 0;
+            for y in 0..4 {
+                for x in 0..4 {
+                    let th = dither_threshold(x, y);
+                    assert_ne!(Fade::In(t).covers(th), Fade::Out(t).covers(th));
+                    covered_in += usize::from(Fade::In(t).covers(th));
+                }
+            }
+            // A fade in by t covers t of the pixels.
+            assert_eq!(covered_in, step);
+        }
+        assert!(Fade::Opaque.covers(0.99));
     }
 }

@@ -56,6 +56,7 @@ fn initial_settings(a: &Args) -> Result<Settings> {
         width_px: a.width,
         height_px: a.height,
         stall_deadline_s: a.stall_deadline / 1e3,
+        fade_s: a.fade,
         ..RuntimeParams::default()
     };
     params.check()?;

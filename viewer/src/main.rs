@@ -59,6 +59,10 @@ pub struct Args {
     /// resident ancestor and read after the frame.
     #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 60_000.0))]
     pub stall_deadline: f32,
+    /// Smooth LOD switches: a rep that replaces another dissolves into it
+    /// over this many seconds (screen-door dither; 0: off).
+    #[arg(long, default_value_t = 0.25, value_parser = in_range(0.0f32, 10.0))]
+    pub fade: f32,
     /// file, hdd, ssd, nvme or LATENCY_MS:MB_PER_S.
     #[arg(long, default_value = "file")]
     pub disk: String,

@@ -129,12 +129,14 @@ pub fn draw(
                     m.wait_ms
                 ));
                 ui.label(format!(
-                    "front {} reps, {:.2} M tris, {:.2} MB at ε {:.2} px; {} hidden (occlusion)",
+                    "front {} reps, {:.2} M tris, {:.2} MB at ε {:.2} px; {} hidden (occlusion); fading {} in / {} out",
                     m.front_reps,
                     m.front_tris as f64 / 1e6,
                     m.front_bytes as f64 / 1e6,
                     m.tolerance_px,
-                    m.occluded_reps
+                    m.occluded_reps,
+                    m.fade_in,
+                    m.fade_out
                 ));
                 ui.label(format!(
                     "resident {:.1} / {:.1} MiB, GPU {:.1} MiB",
@@ -182,6 +184,7 @@ pub fn draw(
             let mut governed = s.params.governor.is_some();
             ui.checkbox(&mut governed, "quality governor (raise ε to fit the budget)");
             s.params.governor = governed.then(|| s.params.governor.unwrap_or_default());
+            ui.add(egui::Slider::new(&mut s.params.fade_s, 0.0..=1.0).text("LOD fade s (0 = off)"));
             let p = &mut s.params.prefetch;
             ui.add(egui::Slider::new(&mut p.margin_deg, 0.0..=60.0).text("F_I margin °"));
             ui.add(egui::Slider::new(&mut p.delta_px, 0.0..=128.0).text("δ px (0 = 4ε)"));

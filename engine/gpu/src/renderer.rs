@@ -16,7 +16,7 @@ use engine::camera::View;
 use engine::format::{PackedVertex, REP_MAGIC, RepHeader};
 use engine::format::{RepKind, RepRecord};
 use engine::image::RgbaImage;
-use engine::render::Renderer;
+use engine::render::{DrawStyle, Fade, Renderer};
 use engine::skeleton::RepId;
 
 /// The clear colour of every frame.
@@ -122,6 +122,7 @@ struct Slot {
 struct FrameDraw {
     rep: RepId,
     substitute: bool,
+    fade: Fade,
     level: u16,
     kind: u16,
     payload: Arc<[u8]>,
@@ -445,9 +446,15 @@ impl GpuRenderer {
             .iter()
             .map(|(i, s)| {
                 let e = s.quant_scale.map(|x| x * 65535.0);
+                // w: the fade's progress and direction (the shader's dither).
+                let (t, dir) = match self.frame_draws[*i].fade {
+                    Fade::Opaque => (1.0, 0.0),
+                    Fade::In(t) => (t, 1.0),
+                    Fade::Out(t) => (t, 2.0),
+                };
                 DrawData {
-                    quant_min: [s.quant_min[0], s.quant_min[1], s.quant_min[2], 0.0],
-                    quant_extent: [e[0], e[1], e[2], 0.0],
+                    quant_min: [s.quant_min[0], s.quant_min[1], s.quant_min[2], t],
+                    quant_extent: [e[0], e[1], e[2], dir],
                     tint: self.tint(&self.frame_draws[*i]),
                 }
             })
@@ -548,7 +555,7 @@ impl Renderer for GpuRenderer {
         self.view = Some(*view);
     }
 
-    fn draw(&mut self, rep: RepId, record: &RepRecord, payload: &Arc<[u8]>, substitute: bool) {
+    fn draw(&mut self, rep: RepId, record: &RepRecord, payload: &Arc<[u8]>, style: DrawStyle) {
         let resident = match self.slots.get_mut(&rep) {
             Some(s) => {
                 s.last_frame = self.frame_no;
@@ -569,7 +576,8 @@ impl Renderer for GpuRenderer {
         }
         self.frame_draws.push(FrameDraw {
             rep,
-            substitute,
+            substitute: style.substitute,
+            fade: style.fade,
             level: record.index,
             kind: record.kind,
             payload: payload.clone(),

@@ -210,6 +210,7 @@ impl Loader {
                     front,
                     hidden,
                     tolerance_px,
+                    fading,
                 } => {
                     self.set_tolerance(tolerance_px);
                     self.classes.set_hidden(&hidden);
@@ -218,7 +219,7 @@ impl Loader {
                         .on_fetch(self.clock.now(), f64::from(self.params.frame_period_s));
                     self.wait_fetch = false;
                     self.ahead.observe(&view.pose);
-                    if self.fetch(&front).is_err() {
+                    if self.fetch(&front, &fading).is_err() {
                         return;
                     }
                     if self.params.mode == Mode::Pre {
@@ -357,9 +358,27 @@ impl Loader {
         }
     }
 
-    /// Stage II for one front.
-    fn fetch(&mut self, front: &[RepId]) -> Result<(), RendererGone> {
+    /// Stage II for one front, and the reps P_R draws fading out.
+    fn fetch(&mut self, front: &[RepId], fading: &[RepId]) -> Result<(), RendererGone> {
         self.res.start_stage2(front);
+        // Fading out: drawn first, pinned for the frame (the footprint
+        // counts both reps of a switch); an evicted one is not read again.
+        let outs: Vec<Draw> = fading
+            .iter()
+            .filter_map(|&r| {
+                let payload = self.res.payload(r)?.clone();
+                self.res.pin(r);
+                self.res.access(r);
+                Some(Draw {
+                    rep: r,
+                    for_rep: r,
+                    payload,
+                })
+            })
+            .collect();
+        if !outs.is_empty() {
+            self.send(Reply::Fading(outs))?;
+        }
         let mut missing = Vec::new();
         let mut draws = Vec::with_capacity(DRAW_BATCH.min(front.len()));
         for &r in front {

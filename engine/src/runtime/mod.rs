@@ -19,8 +19,11 @@
 //! The two threads talk over bounded `crossbeam-channel`s only.
 
 #[cfg(test)]
+mod fade_tests;
+#[cfg(test)]
 mod fault_tests;
 mod loader;
+mod params;
 pub mod resident;
 mod select;
 #[cfg(test)]
@@ -35,256 +38,11 @@ use crossbeam_channel::{Receiver, Sender, bounded};
 
 use crate::camera::{Pose, View};
 use crate::front::FrontIndex;
-use crate::governor::GovernorParams;
 use crate::io::ByteSource;
 use crate::metrics::{FrameMetrics, LoaderCounters};
-use crate::render::Renderer;
+use crate::render::{DrawStyle, Fade, Renderer};
 use crate::skeleton::{RepId, Skeleton};
-
-/// The three systems of the paper's evaluation, on one code path.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Mode {
-    /// Everything loaded at start (the budget is ignored).
-    Incore,
-    /// Fetch on demand only; P_I idle in Stages I and III.
-    NoPre,
-    /// Fetch plus binned priority prefetching.
-    Pre,
-}
-
-impl Mode {
-    /// The name used in CSV files and tables.
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Incore => "incore",
-            Mode::NoPre => "nopre",
-            Mode::Pre => "pre",
-        }
-    }
-
-    /// Parses `incore`, `nopre` or `pre`.
-    pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "incore" => Ok(Mode::Incore),
-            "nopre" => Ok(Mode::NoPre),
-            "pre" => Ok(Mode::Pre),
-            _ => Err(format!("unknown mode {s:?}: use incore, nopre or pre")),
-        }
-    }
-}
-
-/// Prefetching parameters (§4.2).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PrefetchParams {
-    /// Upper end δ of the binned range, in pixels (δ > ε).
-    pub delta_px: f32,
-    /// Number of bins B.
-    pub bins: usize,
-    /// Base widening of F_I over F_R, in degrees (per side).
-    pub margin_deg: f32,
-    /// Extra widening per degree of camera turn per frame.
-    pub margin_per_deg_turn: f32,
-    /// Largest widening, in degrees (90 or more: F_I all around the eye).
-    pub max_margin_deg: f32,
-    /// Levels of PAR/CHD followed from the front.
-    pub depth: u8,
-    /// Largest share of the budget held by speculative reps (prefetched and
-    /// not drawn since); at the cap a prefetch may evict only speculative reps,
-    /// so speculation cannot flush what was drawn before (prefetch pollution).
-    pub speculative_share: f32,
-    /// Reps of the F_I front up to this many bytes are also read by the
-    /// sweep, in file order (0: off; see `loader/sweep.rs`).
-    pub sweep_bytes: u32,
-    /// Frames of camera motion (position and rotation) extrapolated for the
-    /// lookahead fronts, one view front per frame ahead (0: off; see
-    /// `loader/ahead.rs`).
-    pub lookahead_frames: u32,
-    /// F_I goes all around the eye whenever the all-around front at ε takes
-    /// at most this share of the footprint (0: never; the margins above
-    /// decide otherwise).
-    pub all_around_fit: f32,
-}
-
-impl Default for PrefetchParams {
-    fn default() -> Self {
-        Self {
-            delta_px: 0.0,
-            bins: 16,
-            margin_deg: 30.0,
-            margin_per_deg_turn: 4.0,
-            max_margin_deg: 60.0,
-            depth: 1,
-            speculative_share: 0.6,
-            sweep_bytes: 0,
-            lookahead_frames: 10,
-            all_around_fit: 1.0,
-        }
-    }
-}
-
-/// Runtime parameters.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RuntimeParams {
-    pub mode: Mode,
-    /// Hard bound on resident rep bytes (out-of-core modes).
-    pub budget_bytes: u64,
-    /// Error tolerance ε in pixels.
-    pub tolerance_px: f32,
-    pub width_px: u32,
-    pub height_px: u32,
-    pub near: f32,
-    pub far: f32,
-    /// P_I reads reps in blocks of this size and checks for a new fetch
-    /// command after each block while prefetching.
-    pub block_bytes: usize,
-    /// `delta_px == 0` means `4 ε`.
-    pub prefetch: PrefetchParams,
-    /// Frame period P_R keeps (0: unpaced). P_I starts a prefetch read only
-    /// when it expects to finish before the next fetch command is due.
-    pub frame_period_s: f32,
-    /// Place-holder bytes reserved for each resident view-dependence tree
-    /// (raised to what its root meta-nodes need, capped at its meta-node
-    /// data), out of the same footprint as the reps.
-    pub vdt_pool_bytes: u64,
-    /// Longest gap between two wanted reps that P_I reads through instead
-    /// of seeking over (the break-even gap is learnt; this caps it; 0: off).
-    pub coalesce_max_gap: u64,
-    /// Stall deadline (0: off, the paper's protocol: P_R waits for every
-    /// missing rep). Otherwise Stage II starts a read only when its first
-    /// block ends within this many seconds of the fetch command; the reps
-    /// left are drawn as their nearest resident ancestor (counted as
-    /// substituted and late) and loaded right after the frame.
-    pub stall_deadline_s: f32,
-    /// Occlusion culling (0: off): the bytes of P_R's occluder store,
-    /// taken out of `budget_bytes` (P_I's reps get the rest). See
-    /// [`crate::occlusion`].
-    pub occlusion_bytes: u64,
-    /// The quality governor (`None`: off; the front is always computed at
-    /// `tolerance_px`). In `incore` mode only its triangle target applies.
-    pub governor: Option<GovernorParams>,
-}
-
-impl Default for RuntimeParams {
-    fn default() -> Self {
-        Self {
-            mode: Mode::Pre,
-            budget_bytes: 64 << 20,
-            tolerance_px: 2.0,
-            width_px: 1280,
-            height_px: 720,
-            near: 0.05,
-            far: 1e6,
-            block_bytes: 64 << 10,
-            prefetch: PrefetchParams::default(),
-            frame_period_s: 0.0,
-            vdt_pool_bytes: 4 << 20,
-            coalesce_max_gap: 1 << 20,
-            stall_deadline_s: 0.0,
-            occlusion_bytes: 0,
-            governor: None,
-        }
-    }
-}
-
-/// Why the runtime cannot start or go on.
-#[derive(Debug, thiserror::Error)]
-pub enum RuntimeError {
-    #[error("invalid parameter: {0}")]
-    Params(String),
-    #[error(
-        "budget of {budget} bytes is below the minimal front (the root's coarsest rep needs {need} bytes, with its compressed copy while it loads)"
-    )]
-    BudgetTooSmall { budget: u64, need: u64 },
-    #[error("the scene has no object-reps")]
-    NoReps,
-    #[error("the root's coarsest rep cannot be read: {0}")]
-    RootUnreadable(String),
-    #[error("the I/O thread stopped unexpectedly")]
-    LoaderGone,
-}
-
-impl RuntimeParams {
-    /// Rejects nonsense values.
-    pub fn check(&self) -> Result<(), RuntimeError> {
-        let bad = |s: &str| Err(RuntimeError::Params(s.to_string()));
-        if !(self.tolerance_px > 0.0 && self.tolerance_px <= 1e5) {
-            return bad("tolerance must be in (0, 100000] pixels");
-        }
-        if self.width_px == 0
-            || self.height_px == 0
-            || self.width_px > 1 << 15
-            || self.height_px > 1 << 15
-        {
-            return bad("viewport size must be in 1..=32768");
-        }
-        if !(self.near > 0.0 && self.far > self.near && self.far.is_finite()) {
-            return bad("need 0 < near < far");
-        }
-        if !(self.frame_period_s >= 0.0 && self.frame_period_s <= 60.0) {
-            return bad("frame period must be in [0, 60] seconds");
-        }
-        if !(self.stall_deadline_s >= 0.0 && self.stall_deadline_s <= 60.0) {
-            return bad("stall deadline must be in [0, 60] seconds");
-        }
-        if self.mode != Mode::Incore && self.occlusion_bytes > self.budget_bytes / 2 {
-            return bad("the occluder store may take at most half the budget");
-        }
-        if let Some(g) = &self.governor {
-            g.check().map_err(RuntimeError::Params)?;
-            if g.max_tolerance_px < self.tolerance_px {
-                return bad("the governor's largest tolerance is below the tolerance");
-            }
-        }
-        if self.block_bytes < 512 {
-            return bad("block size must be at least 512 bytes");
-        }
-        let p = &self.prefetch;
-        if p.bins == 0 || p.bins > 4096 {
-            return bad("bins must be in 1..=4096");
-        }
-        if !(p.delta_px == 0.0 || (p.delta_px.is_finite() && p.delta_px > self.tolerance_px)) {
-            return bad("δ must exceed the tolerance ε");
-        }
-        for v in [p.margin_deg, p.margin_per_deg_turn, p.max_margin_deg] {
-            if !(v.is_finite() && v >= 0.0) {
-                return bad("F_I margins must be finite and non-negative");
-            }
-        }
-        if !(p.speculative_share > 0.0 && p.speculative_share <= 1.0) {
-            return bad("the speculative share must be in (0, 1]");
-        }
-        if !(p.all_around_fit.is_finite() && p.all_around_fit >= 0.0) {
-            return bad("the all-around fit must be a non-negative share of the budget");
-        }
-        if p.lookahead_frames > 10_000 {
-            return bad("lookahead at most 10000 frames");
-        }
-        if p.max_margin_deg > 180.0 {
-            return bad("F_I margin at most 180 degrees");
-        }
-        Ok(())
-    }
-
-    /// The view of a pose on this viewport.
-    pub fn view(&self, pose: &Pose) -> View {
-        View {
-            pose: *pose,
-            width_px: self.width_px,
-            height_px: self.height_px,
-            near: self.near,
-            far: self.far,
-        }
-    }
-
-    fn delta(&self) -> f32 {
-        // (Above the tolerance; the governor may raise it past a given δ.)
-        if self.prefetch.delta_px > self.tolerance_px {
-            self.prefetch.delta_px
-        } else {
-            4.0 * self.tolerance_px
-        }
-    }
-}
+pub use params::{Mode, PrefetchParams, RuntimeError, RuntimeParams};
 
 /// P_R → P_I.
 enum Cmd {
@@ -296,6 +54,9 @@ enum Cmd {
         hidden: Arc<Vec<RepId>>,
         /// The tolerance the front was computed for (the governor's).
         tolerance_px: f32,
+        /// Reps P_R draws fading out (`crate::fade`): P_I hands over and
+        /// pins those resident, before the front.
+        fading: Arc<Vec<RepId>>,
     },
     /// P_R cannot use this rep (a view-dependence tree whose store failed).
     Unusable(RepId),
@@ -316,6 +77,8 @@ enum Reply {
     /// them, instead of waiting on the channel for P_R to take them one by
     /// one.
     Draws(Vec<Draw>),
+    /// The fading-out reps still resident (before any other draw).
+    Fading(Vec<Draw>),
     Draw(Draw),
     /// Nothing resident can stand in for `for_rep` (only without a root rep).
     Missing,
@@ -340,6 +103,10 @@ pub struct Walkthrough {
     select: select::FrontSelect,
     /// The tolerance of the frame being drawn.
     frame_tol: f32,
+    /// Smooth LOD switches, on P_R's clock.
+    fades: crate::fade::Fades,
+    clock: Arc<dyn crate::clock::Clock>,
+    origin: Instant,
 }
 
 impl std::fmt::Debug for Walkthrough {
@@ -407,7 +174,7 @@ impl Walkthrough {
             pools,
             loader_params,
             (cmd_rx, reply_tx),
-            clock,
+            clock.clone(),
         );
         let handle = std::thread::Builder::new()
             .name("P_I".into())
@@ -446,6 +213,9 @@ impl Walkthrough {
                 },
             ),
             frame_tol: params.tolerance_px,
+            fades: crate::fade::Fades::new(params.fade_s, skeleton_reps),
+            origin: clock.now(),
+            clock,
         })
     }
 
@@ -496,6 +266,13 @@ impl Walkthrough {
         self.frame_tol = sel.tolerance_px;
         let turn_rad = self.last_pose.map_or(0.0, |p| p.angle_to(pose));
         self.last_pose = Some(*pose);
+        let skel = &self.skeleton;
+        let fading = self.fades.plan(
+            (self.clock.now() - self.origin).as_secs_f64(),
+            &front,
+            |r| skel.par(r),
+            |r| !skel.reps[r as usize].is_vdt(),
+        );
         let front = Arc::new(front);
         self.cmd
             .send(Cmd::Fetch {
@@ -504,6 +281,7 @@ impl Walkthrough {
                 front: front.clone(),
                 hidden: Arc::new(hidden),
                 tolerance_px: sel.tolerance_px,
+                fading: Arc::new(fading),
             })
             .map_err(|_| RuntimeError::LoaderGone)?;
         self.frame += 1;
@@ -537,6 +315,11 @@ impl Walkthrough {
                 }
             };
             match reply {
+                Reply::Fading(ds) => {
+                    for d in ds {
+                        self.draw_fading(d, renderer, &mut m);
+                    }
+                }
                 Reply::Draws(ds) => {
                     for d in ds {
                         self.draw(d, &view, stamp, renderer, (&mut m, &mut tf), &mut unusable);
@@ -556,6 +339,7 @@ impl Walkthrough {
             }
         };
         renderer.end_frame();
+        self.fades.end_frame();
         self.select.end_frame(&self.skeleton, &front, &mut m);
         for r in unusable {
             self.cmd
@@ -619,8 +403,40 @@ impl Walkthrough {
         if self.drawn_stamp[rep as usize] != stamp {
             self.drawn_stamp[rep as usize] = stamp;
             m.drawn_tris += u64::from(rec.tri_count);
-            renderer.draw(rep, rec, &payload, rep != for_rep);
+            let style = if rep == for_rep {
+                let fade = self.fades.fade_in(rep);
+                m.fade_in += u32::from(fade != Fade::Opaque);
+                DrawStyle {
+                    substitute: false,
+                    fade,
+                }
+            } else {
+                self.fades.shown(rep);
+                DrawStyle::opaque(true)
+            };
+            renderer.draw(rep, rec, &payload, style);
         }
+    }
+
+    /// Draws a rep fading out (P_I pinned it for this frame). It does not
+    /// take the rep's once-a-frame stamp: drawn again as a substitute, it
+    /// is drawn opaque.
+    fn draw_fading(&mut self, d: Draw, renderer: &mut dyn Renderer, m: &mut FrameMetrics) {
+        let Some(fade) = self.fades.fade_out(d.rep) else {
+            return;
+        };
+        let rec = &self.skeleton.reps[d.rep as usize];
+        m.fade_out += 1;
+        m.drawn_tris += u64::from(rec.tri_count);
+        renderer.draw(
+            d.rep,
+            rec,
+            &d.payload,
+            DrawStyle {
+                substitute: false,
+                fade,
+            },
+        );
     }
 }
 

@@ -133,6 +133,7 @@ proptest! {
         compressed in any::<bool>(),
         occlusion in any::<bool>(),
         governor in any::<bool>(),
+        fade in any::<bool>(),
     ) {
         let (skel, src) = if compressed { wide_compressed(64) } else { wide(64) };
         let total: u64 = skel.reps.iter().map(|r| r.resident_len()).sum();
@@ -151,6 +152,7 @@ proptest! {
             stall_deadline_s: deadline,
             occlusion_bytes,
             governor: governor.then(crate::governor::GovernorParams::default),
+            fade_s: if fade { 0.02 } else { 0.0 },
             ..params(mode, budget)
         };
         let mut walk = Walkthrough::start(skel, src, p).unwrap();
@@ -367,7 +369,7 @@ impl Renderer for Panicky {
         _rep: RepId,
         _record: &crate::format::RepRecord,
         _payload: &Arc<[u8]>,
-        _substitute: bool,
+        _style: crate::render::DrawStyle,
     ) {
         self.0 = self.0.checked_sub(1).expect("renderer failure");
     }

@@ -251,7 +251,7 @@ impl Trees {
             tree.mesh = Some(cut_mesh(&tree.refiner, &rec, color));
         }
         let (mrec, mesh) = tree.mesh.as_ref().expect("built above");
-        renderer.draw(r, mrec, mesh, false);
+        renderer.draw(r, mrec, mesh, crate::render::DrawStyle::opaque(false));
         Ok(())
     }
 }

@@ -4,6 +4,7 @@
 mod bad_input;
 mod conformance;
 mod corrupt_gltf;
+mod fade;
 mod layout;
 mod objects;
 mod occlusion;

@@ -11,6 +11,7 @@ use std::sync::Arc;
 
 use engine::camera::{PathKind, Pose, generate_path};
 use engine::image::RgbaImage;
+use engine::render::DrawStyle;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::{ByteSource, MemSource, SceneFile, Skeleton};
 use engine_gpu::{Colouring, GpuRenderer, RendererConfig};
@@ -319,7 +320,7 @@ fn a_small_arena_recycles_idle_gpu_copies() {
                 rep,
                 &skel.reps[rep as usize],
                 &payloads[rep as usize],
-                false,
+                DrawStyle::opaque(false),
             );
         }
         r.end_frame();
@@ -338,7 +339,7 @@ fn a_small_arena_recycles_idle_gpu_copies() {
         wrong,
         &skel.reps[other as usize],
         &payloads[wrong as usize],
-        false,
+        DrawStyle::opaque(false),
     );
     r.end_frame();
     assert_eq!(r.stats().bad_payloads, 1);

@@ -4,6 +4,7 @@
 //! out-of-core frames against the in-core ones (PSNR on sampled frames).
 
 mod bounds;
+mod fidelity;
 mod plots;
 
 use std::path::{Path, PathBuf};
@@ -155,6 +156,16 @@ struct Args {
     /// The governor's triangle target for the front (0: none).
     #[arg(long, default_value_t = 0)]
     max_tris: u64,
+    /// Smooth LOD switches (0: off): a rep that replaces another fades in
+    /// over this many seconds while the other fades out, both resident.
+    #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 10.0))]
+    fade: f32,
+    /// Fidelity against full resolution (needs --renderer wgpu): walk the
+    /// path in core with every object at its finest rep, then at each of
+    /// these tolerances (comma-separated, px), and compare the sampled
+    /// frames (PSNR, pixels differing beyond one pixel); runs nothing else.
+    #[arg(long)]
+    fidelity: Option<String>,
 }
 
 fn main() -> ExitCode {
@@ -289,6 +300,7 @@ fn run(a: Args) -> Result<()> {
             max_tris: a.max_tris,
             ..Default::default()
         }),
+        fade_s: a.fade,
         ..RuntimeParams::default()
     };
     println!(
@@ -308,6 +320,35 @@ fn run(a: Args) -> Result<()> {
         let text = bounds::bounds(&skel, &poses, &params, &budgets, disk, a.fps);
         write_bytes(&a.out.join("bounds.md"), text.as_bytes())?;
         println!("{text}");
+        return Ok(());
+    }
+    if let Some(list) = &a.fidelity {
+        let Some(ctx) = &gpu else {
+            bail!("--fidelity needs --renderer wgpu");
+        };
+        let tolerances: Vec<f32> = list
+            .split(',')
+            .map(|t| in_range(0.01f32, 10_000.0)(t.trim()).map_err(anyhow::Error::msg))
+            .collect::<Result<_>>()
+            .context("--fidelity")?;
+        let source = || -> Result<Arc<dyn engine::io::ByteSource>> {
+            scene_source(file.try_clone()?, None).with_context(|| scene_name.clone())
+        };
+        let setup = fidelity::Setup {
+            skeleton: &skel,
+            source: &source,
+            poses: &poses,
+            params,
+            gpu: ctx,
+            every: a.psnr_every,
+            data_bytes,
+            save: a.save_frames.then(|| a.out.join("frames")),
+        };
+        let table = fidelity::run(&setup, &tolerances, &a.out)?;
+        println!(
+            "\n{table}\nfidelity.csv and fidelity.md in {}",
+            a.out.display()
+        );
         return Ok(());
     }
     let period_ms = if a.fps > 0.0 {
