@@ -43,6 +43,7 @@ pub fn key(input: &Path, params: &BuildParams) -> Result<String, ImportError> {
     h.update(b"hlod-build cache v1\0");
     h.update(env!("CARGO_PKG_VERSION").as_bytes());
     h.update(&engine::format::VERSION.to_le_bytes());
+    h.update(&crate::lod::SIMPLIFICATION_REVISION.to_le_bytes());
     h.update(format!("{params:?}").as_bytes());
     hash_file(&mut h, input).map_err(|e| read_err(input, e))?;
     let head = json_part(input).map_err(|e| read_err(input, e))?;

@@ -18,6 +18,7 @@
 pub mod build;
 pub mod cache;
 pub mod cluster;
+pub mod deviation;
 pub mod import;
 pub mod layout;
 pub mod lod;

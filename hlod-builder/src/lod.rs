@@ -3,11 +3,20 @@
 //! A chain is made by simplifying each level from the previous one, so a
 //! level's object-space error is the sum of the steps' errors (an upper bound
 //! on its distance from the original). Topology-preserving `simplify` is tried
-//! first; when it stalls, `simplify_sloppy` makes the drastic levels.
+//! first; when it stalls, `simplify_sloppy` makes the drastic levels. A
+//! step's error is the larger of meshopt's estimate and the deviation
+//! measured between the two meshes ([`crate::deviation`]): the estimate
+//! misses members that collapse away whole, and a level that hides them
+//! must not be drawn where they still cover pixels.
 
 use meshopt::SimplifyOptions;
 
 use crate::mesh::Mesh;
+
+/// Bumped whenever the same input and parameters simplify to different
+/// levels (the build cache's key holds it). 2: sloppy levels' errors are at
+/// least their measured deviation ([`crate::deviation`]).
+pub const SIMPLIFICATION_REVISION: u32 = 2;
 
 /// Parameters of LOD and HLOD construction.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -93,6 +102,13 @@ pub fn simplify(
         indices: idx,
         ..mesh.clone()
     };
+    // meshopt's estimate misses what collapsed away whole (a sloppy
+    // cluster's thin member, a brace folded into its leg): the measured
+    // deviation does not.
+    err = err.max(crate::deviation::deviation(mesh, &m));
+    if !err.is_finite() {
+        return None;
+    }
     Some((optimize(&m), err.max(0.0)))
 }
 

@@ -7,7 +7,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use hlod_builder::build::{BuildParams, build_file};
 use hlod_builder::lod::LodParams;
-use hlod_builder::scenegen::{plant, tile};
+use hlod_builder::scenegen::{lattice, plant, tile};
 use hlod_builder::summary::{TABLE_HEADER, human_bytes, stats_of, table_row};
 
 #[derive(Parser, Debug)]
@@ -124,6 +124,17 @@ enum GenCmd {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// Thin members: lattice towers, pipe racks and railings on a grid of
+    /// UNITS x UNITS (members of 2-9 cm; for checking that simplification
+    /// keeps them).
+    Lattice {
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[arg(long, default_value_t = 6)]
+        units: u32,
+        #[arg(short, long)]
+        output: PathBuf,
+    },
     /// Lay a model out on an N x M grid.
     Tile {
         input: PathBuf,
@@ -193,6 +204,22 @@ fn run(cli: Cli) -> Result<()> {
                 s.meshes,
                 human_bytes(s.bytes),
                 t.elapsed().as_secs_f64()
+            );
+            Ok(())
+        }
+        Cmd::Gen(GenCmd::Lattice {
+            seed,
+            units,
+            output,
+        }) => {
+            let p = lattice::LatticeParams { seed, units };
+            let s = lattice::write_lattice(&p, &output)?;
+            println!(
+                "{}: {} objects, {} triangles, {}",
+                output.display(),
+                s.objects,
+                s.triangles,
+                human_bytes(s.bytes)
             );
             Ok(())
         }

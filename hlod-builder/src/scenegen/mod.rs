@@ -2,6 +2,7 @@
 //! GLB so that any glTF tool opens them.
 
 pub mod glb;
+pub mod lattice;
 pub mod plant;
 pub mod shapes;
 pub mod tile;
