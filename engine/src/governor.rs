@@ -1,5 +1,5 @@
 //! The quality governor: when the front at the tolerance ε does not fit
-//! the footprint (or a triangle target), the whole frame is drawn at the
+//! the footprint (or a triangle or frame-time target), the whole frame is drawn at the
 //! smallest larger tolerance that fits, instead of substituting whatever
 //! ancestors happen to be resident for the reps that cannot be loaded.
 //!
@@ -13,8 +13,14 @@
 //! frame does not go coarser again, and it goes finer only while the band
 //! allows.
 //!
-//! Plain policy: the caller measures a front for a tolerance, the governor
-//! decides; no clock, no thread.
+//! A frame-time target becomes a triangle target: the governor is told each
+//! frame's time, the part of it spent drawing and the triangles drawn
+//! ([`Governor::observe_frame`]), keeps moving averages of the cost of a
+//! triangle and of the rest of the frame, and allows the triangles that fit
+//! the target after the rest.
+//!
+//! Plain policy: the caller measures a front for a tolerance and the
+//! frames' times, the governor decides; no clock, no thread.
 
 /// Parameters of [`Governor`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -27,6 +33,8 @@ pub struct GovernorParams {
     pub lower_share: f32,
     /// Front triangles allowed (0: no target).
     pub max_tris: u64,
+    /// Frame time to keep within, in milliseconds (0: no target).
+    pub max_frame_ms: f32,
     /// Factor between two tolerances tried (> 1).
     pub step: f32,
     /// The largest tolerance, in pixels.
@@ -39,6 +47,7 @@ impl Default for GovernorParams {
             fit_share: 0.8,
             lower_share: 0.85,
             max_tris: 0,
+            max_frame_ms: 0.0,
             step: 1.25,
             max_tolerance_px: 4096.0,
         }
@@ -56,6 +65,10 @@ impl GovernorParams {
         }
         if !(self.step > 1.0 && self.step <= 4.0) {
             return Err("the governor's step must be in (1, 4]".into());
+        }
+        if !(self.max_frame_ms.is_finite() && self.max_frame_ms >= 0.0 && self.max_frame_ms <= 60e3)
+        {
+            return Err("the governor's frame-time target must be in [0, 60000] ms".into());
         }
         if !(self.max_tolerance_px.is_finite() && self.max_tolerance_px >= 1.0) {
             return Err("the governor's largest tolerance must be at least 1 pixel".into());
@@ -77,6 +90,20 @@ pub struct Governor {
     params: GovernorParams,
     base: f32,
     current: f32,
+    /// Moving averages: drawing time per triangle, and the rest of a
+    /// frame (front, waiting for P_I), in ms.
+    ms_per_tri: Option<f64>,
+    other_ms: Option<f64>,
+}
+
+/// Weight of a new frame in the moving averages.
+const SMOOTHING: f64 = 0.1;
+
+/// Frames drawing fewer triangles say little about a triangle's cost.
+const MIN_TRIS_OBSERVED: u64 = 1000;
+
+fn average(avg: &mut Option<f64>, v: f64) {
+    *avg = Some(avg.map_or(v, |a| a + SMOOTHING * (v - a)));
 }
 
 impl Governor {
@@ -86,7 +113,38 @@ impl Governor {
             params,
             base: base_px,
             current: base_px,
+            ms_per_tri: None,
+            other_ms: None,
         }
+    }
+
+    /// A frame ended: it took `frame_ms`, of which `draw_ms` drawing `tris`
+    /// triangles (only a frame-time target uses it).
+    pub fn observe_frame(&mut self, frame_ms: f64, draw_ms: f64, tris: u64) {
+        if self.params.max_frame_ms <= 0.0 || !(frame_ms.is_finite() && draw_ms.is_finite()) {
+            return;
+        }
+        average(&mut self.other_ms, (frame_ms - draw_ms).max(0.0));
+        if tris >= MIN_TRIS_OBSERVED && draw_ms > 0.0 {
+            average(&mut self.ms_per_tri, draw_ms / tris as f64);
+        }
+    }
+
+    /// The triangles a front may have (0: any): `max_tris`, and what the
+    /// frame-time target leaves after the rest of the frame (at least a
+    /// tenth of the target, so one slow frame does not blank the view).
+    pub fn tri_target(&self) -> u64 {
+        let p = self.params;
+        let mut t = p.max_tris;
+        if p.max_frame_ms > 0.0
+            && let Some(c) = self.ms_per_tri
+        {
+            let target = f64::from(p.max_frame_ms);
+            let room = (target - self.other_ms.unwrap_or(0.0)).max(0.1 * target);
+            let timed = ((room / c.max(1e-12)) as u64).max(1);
+            t = if t == 0 { timed } else { t.min(timed) };
+        }
+        t
     }
 
     /// The tolerance of the last frame.
@@ -96,8 +154,8 @@ impl Governor {
 
     fn fits(&self, c: FrontCost, capacity: u64, share: f64) -> bool {
         let fit = capacity as f64 * f64::from(self.params.fit_share) * share;
-        let tris_ok =
-            self.params.max_tris == 0 || c.tris as f64 <= self.params.max_tris as f64 * share;
+        let max_tris = self.tri_target();
+        let tris_ok = max_tris == 0 || c.tris as f64 <= max_tris as f64 * share;
         c.bytes as f64 <= fit && tris_ok
     }
 
@@ -209,6 +267,45 @@ mod tests {
             tris: 0,
         });
         assert_eq!(e, 50.0);
+    }
+
+    #[test]
+    fn a_frame_time_target_settles_within_the_target_without_oscillating() {
+        let p = GovernorParams {
+            max_frame_ms: 20.0,
+            ..GovernorParams::default()
+        };
+        let mut g = Governor::new(p, 1.0);
+        // A renderer of 3 ms a frame plus 0.1 ms per 1000 triangles; the
+        // front holds 1M / ε triangles (100 ms at ε 1).
+        let mut seen = Vec::new();
+        let mut last_ms = 0.0;
+        for _ in 0..120 {
+            let e = g.choose(u64::MAX, |eps| FrontCost {
+                bytes: 0,
+                tris: (1e6 / f64::from(eps)) as u64,
+            });
+            let tris = (1e6 / f64::from(e)) as u64;
+            let draw = tris as f64 * 1e-4;
+            last_ms = 3.0 + draw;
+            g.observe_frame(last_ms, draw, tris);
+            seen.push(e);
+        }
+        assert!(last_ms <= 20.0, "{last_ms} ms at ε {}", g.tolerance());
+        // Not far coarser than needed (170k triangles: ε 5.9).
+        assert!(g.tolerance() < 5.9 * p.step * p.step, "ε {}", g.tolerance());
+        let tail = &seen[60..];
+        assert!(tail.windows(2).all(|w| w[0] == w[1]), "{tail:?}");
+        // A cheap scene stays at ε.
+        let mut g = Governor::new(p, 1.0);
+        for _ in 0..30 {
+            let e = g.choose(u64::MAX, |_| FrontCost {
+                bytes: 0,
+                tris: 10_000,
+            });
+            g.observe_frame(4.0, 1.0, 10_000);
+            assert_eq!(e, 1.0);
+        }
     }
 
     #[test]

@@ -184,6 +184,9 @@ pub fn draw(
             let mut governed = s.params.governor.is_some();
             ui.checkbox(&mut governed, "quality governor (raise ε to fit the budget)");
             s.params.governor = governed.then(|| s.params.governor.unwrap_or_default());
+            if let Some(g) = &mut s.params.governor {
+                ui.add(egui::Slider::new(&mut g.max_frame_ms, 0.0..=200.0).text("frame-time target ms (0 = none)"));
+            }
             ui.add(egui::Slider::new(&mut s.params.fade_s, 0.0..=1.0).text("LOD fade s (0 = off)"));
             let p = &mut s.params.prefetch;
             ui.add(egui::Slider::new(&mut p.margin_deg, 0.0..=60.0).text("F_I margin °"));

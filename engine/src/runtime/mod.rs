@@ -358,6 +358,9 @@ impl Walkthrough {
         m.wait_ms = wait;
         m.loader = stats;
         m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let draw_ms = m.frame_ms - m.front_ms - m.occlusion_ms - m.wait_ms;
+        self.select
+            .observe_frame(m.frame_ms, draw_ms.max(0.0), m.drawn_tris);
         Ok(m)
     }
 

@@ -109,6 +109,13 @@ impl FrontSelect {
         out
     }
 
+    /// A frame ended (the governor's frame-time target).
+    pub(super) fn observe_frame(&mut self, frame_ms: f64, draw_ms: f64, tris: u64) {
+        if let Some(g) = &mut self.governor {
+            g.observe_frame(frame_ms, draw_ms, tris);
+        }
+    }
+
     /// A rep drawn as itself this frame (for the occluders).
     pub(super) fn drawn(&mut self, r: RepId, rec: &RepRecord, payload: &Arc<[u8]>) {
         if let Some(c) = &mut self.occlusion {

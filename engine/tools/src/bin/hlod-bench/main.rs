@@ -156,6 +156,10 @@ struct Args {
     /// The governor's triangle target for the front (0: none).
     #[arg(long, default_value_t = 0)]
     max_tris: u64,
+    /// The governor's frame-time target in ms (0: none): the front's
+    /// triangles are held to what the measured drawing rate fits in it.
+    #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 60_000.0))]
+    max_frame_ms: f32,
     /// Smooth LOD switches (0: off): a rep that replaces another fades in
     /// over this many seconds while the other fades out, both resident.
     #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 10.0))]
@@ -296,10 +300,13 @@ fn run(a: Args) -> Result<()> {
         vdt_pool_bytes: vdt_pool,
         coalesce_max_gap: coalesce_gap,
         stall_deadline_s: a.stall_deadline / 1e3,
-        governor: (a.governor || a.max_tris > 0).then_some(engine::governor::GovernorParams {
-            max_tris: a.max_tris,
-            ..Default::default()
-        }),
+        governor: (a.governor || a.max_tris > 0 || a.max_frame_ms > 0.0).then_some(
+            engine::governor::GovernorParams {
+                max_tris: a.max_tris,
+                max_frame_ms: a.max_frame_ms,
+                ..Default::default()
+            },
+        ),
         fade_s: a.fade,
         ..RuntimeParams::default()
     };
