@@ -162,7 +162,15 @@ fn generators_validate_their_parameters() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert_eq!(std::fs::read_dir(d).unwrap().count(), 2);
+    let out = hlod_build(&["gen", "lattice", "--units", "0", "-o", "l.glb"], d);
+    assert_clean_failure(&out, "--units", d, 2);
+    let out = hlod_build(&["gen", "lattice", "--units", "1", "-o", "l.glb"], d);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(std::fs::read_dir(d).unwrap().count(), 3);
 }
 
 #[test]
