@@ -26,10 +26,13 @@ use crate::mesh::Mesh;
 /// Samples taken from each mesh, at most.
 pub const MAX_SAMPLES: usize = 8192;
 
+/// Meshes of at most this many triangles are searched without a BVH.
+const BRUTE_FORCE_TRIS: usize = 64;
+
 /// A mesh's triangles and a BVH over them, for nearest-point queries.
 struct Triangles {
     tris: Vec<[Vec3A; 3]>,
-    bvh: obvhs::bvh2::Bvh2,
+    bvh: Option<obvhs::bvh2::Bvh2>,
 }
 
 impl Triangles {
@@ -40,6 +43,9 @@ impl Triangles {
             .chunks_exact(3)
             .map(|t| [p(t[0]), p(t[1]), p(t[2])])
             .collect();
+        if tris.len() <= BRUTE_FORCE_TRIS {
+            return Self { tris, bvh: None };
+        }
         let boxes: Vec<BvhAabb> = tris
             .iter()
             .map(|t| BvhAabb::new(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
@@ -48,34 +54,37 @@ impl Triangles {
         params.max_prims_per_leaf = 4;
         let mut t = Duration::ZERO;
         let bvh = build_bvh2(&boxes, params, &mut t);
-        Self { tris, bvh }
+        Self {
+            tris,
+            bvh: Some(bvh),
+        }
     }
 
     /// Squared distance from `p` to the nearest triangle (infinite when
     /// there is none).
     fn nearest2(&self, p: Vec3A) -> f32 {
         let mut best = f32::INFINITY;
-        if self.tris.is_empty() || self.bvh.nodes.is_empty() {
+        let Some(bvh) = self.bvh.as_ref().filter(|b| !b.nodes.is_empty()) else {
+            for t in &self.tris {
+                best = best.min(point_triangle2(p, t));
+            }
             return best;
-        }
+        };
         let mut stack = vec![(0usize, 0.0f32)];
         while let Some((i, d)) = stack.pop() {
             if d >= best {
                 continue;
             }
-            let node = &self.bvh.nodes[i];
+            let node = &bvh.nodes[i];
             if node.is_leaf() {
                 let f = node.first_index as usize;
-                for &t in &self.bvh.primitive_indices[f..f + node.prim_count as usize] {
+                for &t in &bvh.primitive_indices[f..f + node.prim_count as usize] {
                     best = best.min(point_triangle2(p, &self.tris[t as usize]));
                 }
                 continue;
             }
             let (a, b) = (node.first_index as usize, node.first_index as usize + 1);
-            let (da, db) = (
-                box2(p, &self.bvh.nodes[a].aabb),
-                box2(p, &self.bvh.nodes[b].aabb),
-            );
+            let (da, db) = (box2(p, &bvh.nodes[a].aabb), box2(p, &bvh.nodes[b].aabb));
             // The nearer child is searched first (popped last).
             if da < db {
                 stack.push((b, db));
