@@ -133,14 +133,21 @@ impl Lookahead {
             plan.index
                 .compute(&ahead, &f, plan.params.tolerance_px, &mut front);
             for &r in &front {
-                // Hidden now: left to the bins, which serve it last.
-                if failed[r as usize] || classes.is_hidden(r) {
+                if failed[r as usize] {
                     continue;
                 }
                 if res.contains(r) {
                     res.access(r);
                     continue;
                 }
+                // Hidden now (behind a wall from here): after every rep the
+                // motion will see, in the same horizon order, since a door
+                // ahead may show it.
+                let stage = if classes.is_hidden(r) {
+                    stage + passes.len()
+                } else {
+                    stage
+                };
                 classes.queue(r);
                 let rec = &plan.skeleton.reps[r as usize];
                 let key = if m == 0.0 {
