@@ -104,8 +104,8 @@ pub fn run(s: &Setup<'_>, tolerances: &[f32], out: &Path) -> Result<String> {
     );
     let mut csv = String::from("tolerance_px,frame,psnr_db,differing_share\n");
     let mut table = format!(
-        "Fidelity against full resolution (every object at its finest rep: median {:.2} M triangles drawn), in core, every {} frames; differing = pixels beyond a one-pixel tolerance (colour tolerance {COLOUR_TOLERANCE}/255):\n\n| ε px | sampled | median PSNR dB | min PSNR dB | median differing % | max differing % | median triangles drawn (share of finest) |\n|---:|---:|---:|---:|---:|---:|---:|\n",
-        reference.front_tris / 1e6,
+        "Fidelity against full resolution (every object at its finest rep: median {:.1} k triangles drawn), in core, every {} frames; differing = pixels beyond a one-pixel tolerance (colour tolerance {COLOUR_TOLERANCE}/255):\n\n| ε px | sampled | median PSNR dB | min PSNR dB | median differing % | max differing % | median triangles drawn (share of finest) |\n|---:|---:|---:|---:|---:|---:|---:|\n",
+        reference.front_tris / 1e3,
         s.every
     );
     for &t in tolerances {
@@ -137,11 +137,11 @@ pub fn run(s: &Setup<'_>, tolerances: &[f32], out: &Path) -> Result<String> {
         let min = psnr.iter().copied().fold(f64::INFINITY, f64::min);
         let max = share.iter().copied().fold(0.0, f64::max);
         table.push_str(&format!(
-            "| {t} | {} | {:.1} | {min:.1} | {:.3} | {max:.3} | {:.2} M ({:.0}%) |\n",
+            "| {t} | {} | {:.1} | {min:.1} | {:.3} | {max:.3} | {:.1} k ({:.0}%) |\n",
             psnr.len(),
             quantile(&psnr, 0.5),
             quantile(&share, 0.5),
-            w.front_tris / 1e6,
+            w.front_tris / 1e3,
             100.0 * w.front_tris / reference.front_tris.max(1.0)
         ));
         eprintln!("fidelity: ε {t} px done");
