@@ -61,16 +61,22 @@ impl Triangles {
     }
 
     /// Squared distance from `p` to the nearest triangle (infinite when
-    /// there is none).
-    fn nearest2(&self, p: Vec3A) -> f32 {
+    /// there is none), or any value at most `enough` as soon as one
+    /// triangle is that near (the caller wants the largest distance of
+    /// many points: one within the largest so far cannot change it).
+    fn nearest2(&self, p: Vec3A, enough: f32, stack: &mut Vec<(usize, f32)>) -> f32 {
         let mut best = f32::INFINITY;
         let Some(bvh) = self.bvh.as_ref().filter(|b| !b.nodes.is_empty()) else {
             for t in &self.tris {
                 best = best.min(point_triangle2(p, t));
+                if best <= enough {
+                    break;
+                }
             }
             return best;
         };
-        let mut stack = vec![(0usize, 0.0f32)];
+        stack.clear();
+        stack.push((0usize, 0.0f32));
         while let Some((i, d)) = stack.pop() {
             if d >= best {
                 continue;
@@ -80,6 +86,9 @@ impl Triangles {
                 let f = node.first_index as usize;
                 for &t in &bvh.primitive_indices[f..f + node.prim_count as usize] {
                     best = best.min(point_triangle2(p, &self.tris[t as usize]));
+                }
+                if best <= enough {
+                    return best;
                 }
                 continue;
             }
@@ -180,11 +189,13 @@ pub fn distance_from(from: &Mesh, to: &Mesh) -> f32 {
     one_way2(from, &Triangles::new(to)).sqrt()
 }
 
+/// The largest of the samples' squared distances: exactly, since a
+/// sample whose search stops early is within the largest so far.
 fn one_way2(from: &Mesh, to: &Triangles) -> f32 {
+    let mut stack = Vec::new();
     samples(from)
         .into_iter()
-        .map(|p| to.nearest2(p))
-        .fold(0.0f32, f32::max)
+        .fold(0.0f32, |m, p| m.max(to.nearest2(p, m, &mut stack)))
 }
 
 #[cfg(test)]
