@@ -363,10 +363,32 @@ impl Loader {
         self.res.start_stage2(front);
         // Fading out: drawn first, pinned for the frame (the footprint
         // counts both reps of a switch); an evicted one is not read again.
+        // A fade takes only room the front does not need: the whole front,
+        // the kept root and what is reserved come first.
+        let rec = |r: RepId| &self.skeleton.reps[r as usize];
+        let mut need = self.res.reserved()
+            + self.cost(self.skeleton.nodes[0].first_rep)
+            + front
+                .iter()
+                .map(|&r| {
+                    let scratch = if self.res.contains(r) {
+                        0
+                    } else {
+                        load_scratch(rec(r))
+                    };
+                    self.cost(r) + scratch
+                })
+                .sum::<u64>();
+        let budget = self.params.budget_bytes;
         let outs: Vec<Draw> = fading
             .iter()
             .filter_map(|&r| {
                 let payload = self.res.payload(r)?.clone();
+                let c = self.cost(r);
+                if need.saturating_add(c) > budget {
+                    return None;
+                }
+                need += c;
                 self.res.pin(r);
                 self.res.access(r);
                 Some(Draw {
