@@ -366,19 +366,23 @@ impl Loader {
         // A fade takes only room the front does not need: the whole front,
         // the kept root and what is reserved come first.
         let rec = |r: RepId| &self.skeleton.reps[r as usize];
-        let mut need = self.res.reserved()
-            + self.cost(self.skeleton.nodes[0].first_rep)
-            + front
-                .iter()
-                .map(|&r| {
-                    let scratch = if self.res.contains(r) {
-                        0
-                    } else {
-                        load_scratch(rec(r))
-                    };
-                    self.cost(r) + scratch
-                })
-                .sum::<u64>();
+        let mut need = if fading.is_empty() {
+            0
+        } else {
+            self.res.reserved()
+                + self.cost(self.skeleton.nodes[0].first_rep)
+                + front
+                    .iter()
+                    .map(|&r| {
+                        let scratch = if self.res.contains(r) {
+                            0
+                        } else {
+                            load_scratch(rec(r))
+                        };
+                        self.cost(r) + scratch
+                    })
+                    .sum::<u64>()
+        };
         let budget = self.params.budget_bytes;
         let outs: Vec<Draw> = fading
             .iter()
