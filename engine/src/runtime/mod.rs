@@ -16,6 +16,10 @@
 //! refines it once per frame it is drawn, its meta-node store's bytes
 //! reserved by P_I out of the same budget.
 //!
+//! With fades on (`RuntimeParams::fade_s`, [`crate::fade`]), P_R asks P_I
+//! with each fetch command for the reps fading out; P_I hands over and pins
+//! those still resident, before the front, when the front leaves room.
+//!
 //! The two threads talk over bounded `crossbeam-channel`s only.
 
 #[cfg(test)]

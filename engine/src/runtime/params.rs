@@ -123,7 +123,8 @@ pub struct RuntimeParams {
     /// [`crate::occlusion`].
     pub occlusion_bytes: u64,
     /// The quality governor (`None`: off; the front is always computed at
-    /// `tolerance_px`). In `incore` mode only its triangle target applies.
+    /// `tolerance_px`). In `incore` mode only its triangle and frame-time
+    /// targets apply.
     pub governor: Option<GovernorParams>,
     /// Smooth LOD switches (0: off): a rep that replaces another fades in
     /// over this many seconds while the other fades out (see
