@@ -129,3 +129,27 @@ fn fades_change_no_front_and_off_draws_nothing_faded() {
         assert_eq!((b.fade_in, b.fade_out), (0, 0));
     }
 }
+
+#[test]
+fn a_fade_takes_no_room_the_front_needs() {
+    // A footprint the fronts of the walk just fit: fades may only use what
+    // the front leaves, so they add no substitute.
+    let (skel, _) = wide(64);
+    let root = skel.reps[0].resident_len();
+    let (frames, _) = walk(Mode::Incore, u64::MAX, 0.0);
+    let widest = frames.iter().map(|f| f.front_bytes).max().unwrap();
+    let budget = widest + root;
+    let subs = |fade_s| {
+        let (frames, _) = walk(Mode::NoPre, budget, fade_s);
+        check_frames(&frames, budget);
+        let fades: u32 = frames.iter().map(|f| f.fade_in + f.fade_out).sum();
+        (frames.iter().filter(|f| f.substituted > 0).count(), fades)
+    };
+    let (without, _) = subs(0.0);
+    let (with, fades) = subs(0.2);
+    assert!(fades > 0, "no fade at all");
+    assert!(
+        with <= without,
+        "{with} frames with substitutes with fades, {without} without"
+    );
+}
