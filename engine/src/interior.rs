@@ -359,7 +359,7 @@ pub fn scene_triangles<S: crate::io::ByteSource>(
     for n in s.nodes.iter().filter(|n| n.is_leaf()) {
         let finest = (n.first_rep..n.first_rep + n.rep_count)
             .rev()
-            .find(|&r| !s.reps[r as usize].is_vdt());
+            .find(|&r| !s.reps[r as usize].is_paged());
         let Some(r) = finest else { continue };
         let m = scene.read_rep(r)?;
         let pos: Vec<Vec3> = m

@@ -59,6 +59,7 @@ pub mod interior;
 pub mod io;
 pub mod limits;
 pub mod metrics;
+pub mod mt;
 pub mod occlusion;
 pub mod outfile;
 pub mod pick;

@@ -280,6 +280,20 @@ frame_metrics! {
         /// the bytes they expanded to, since the previous frame.
         loader.expand_ms: f64 => sum,
         loader.expanded_bytes: u64 => sum,
+        /// Multi-Triangulations drawn this frame, their cut arcs and
+        /// triangles, their refinements + coarsenings, the reads and
+        /// partitions read this frame (P_R's, through the disk model),
+        /// misses (nodes wanted and not read: footprint, checksum, I/O) and
+        /// the nodes their stores hold (their bytes are in `vdt_bytes`).
+        mt_trees: u32,
+        mt_cut_arcs: u32,
+        mt_tris: u64 => sum,
+        mt_adapt: u32 => sum,
+        mt_reads: u32 => sum,
+        mt_partitions: u32 => sum,
+        mt_read_bytes: u64 => sum,
+        mt_misses: u32 => sum,
+        mt_nodes: u32 => max,
     }
 }
 
@@ -314,7 +328,7 @@ pub struct Summary {
     /// Of `substituted`: front reps not loaded by the stall deadline.
     pub late_reps: u64,
     pub mean_front_ms: f64,
-    /// Frames that drew a view-dependence tree, and per such frame: mean
+    /// Frames that drew a view-dependence tree or MT, and per such frame: mean
     /// Adapt, mean active tree triangles, Miss % (misses / (Adapt +
     /// misses)), mean refinement ms; meta-nodes read and the most bytes the
     /// tree stores held.
@@ -359,7 +373,7 @@ pub struct Recorder {
     mode: &'static str,
     totals: FrameTotals,
     trace: Vec<TracePoint>,
-    /// Frames that drew a view-dependence tree.
+    /// Frames that drew a view-dependence tree or a Multi-Triangulation.
     vdt_frames: usize,
 }
 
@@ -370,7 +384,7 @@ impl Recorder {
             self.mode = f.mode;
         }
         self.totals.add(f);
-        if f.vdt_trees > 0 {
+        if f.vdt_trees > 0 || f.mt_trees > 0 {
             self.vdt_frames += 1;
         }
         self.trace.push(TracePoint {
@@ -545,7 +559,7 @@ mod tests {
         // the column list generated them (P_I's counters among P_R's).
         assert_eq!(
             CSV_HEADER,
-            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,occluders,occluded_reps,occluder_tris,occlusion_ms,occluder_bytes,tolerance_px,front_tries,fade_in,fade_out,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms,prefetch_noroom,prefetch_waits,idle_ms,lookahead_ms,coalesce_gap,expand_ms,expanded_bytes"
+            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,occluders,occluded_reps,occluder_tris,occlusion_ms,occluder_bytes,tolerance_px,front_tries,fade_in,fade_out,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms,prefetch_noroom,prefetch_waits,idle_ms,lookahead_ms,coalesce_gap,expand_ms,expanded_bytes,mt_trees,mt_cut_arcs,mt_tris,mt_adapt,mt_reads,mt_partitions,mt_read_bytes,mt_misses,mt_nodes"
         );
         let f = FrameMetrics {
             frame: 7,
@@ -564,7 +578,7 @@ mod tests {
             "{row}"
         );
         assert!(
-            row.ends_with(",0,0,0.500,0,0,0.000,0.000,0,0.000,0"),
+            row.ends_with(",0,0,0.500,0,0,0.000,0.000,0,0.000,0,0,0,0,0,0,0,0,0,0"),
             "{row}"
         );
     }

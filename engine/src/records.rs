@@ -12,9 +12,10 @@ compile_error!("the scene format is little-endian and this engine reads it by ca
 /// File magic: the first eight bytes of every scene file.
 pub const MAGIC: [u8; 8] = *b"OOCHLOD\0";
 /// The format version this build writes (and the newest it reads).
-/// Version 3 packs the reps on [`REP_ALIGN`] boundaries; versions 1 and 2
-/// padded every rep to a [`BLOCK`].
-pub const VERSION: u32 = 3;
+/// Version 4 adds the Multi-Triangulation rep kind; version 3 packs the
+/// reps on [`REP_ALIGN`] boundaries; versions 1 and 2 padded every rep to a
+/// [`BLOCK`].
+pub const VERSION: u32 = 4;
 /// The oldest version this build reads (no origin, no object section).
 pub const OLDEST_VERSION: u32 = 1;
 /// Alignment of the data section, the skeleton section and of every
@@ -175,6 +176,13 @@ pub enum RepKind {
     /// permanent triangles, checksummed by `checksum`) and `aux` the paged
     /// part after it; `error` is the tree's coarsest switch value.
     Vdt = 2,
+    /// A Multi-Triangulation (Holst & Schumann; format version 4): the
+    /// finest rep of a large object's leaf, cut per frame. Its payload range
+    /// holds an embedded MT file; `len` covers the in-core part (header,
+    /// node directory, partition table, checksummed by `checksum`) and
+    /// `aux` the node records after it (each with its own CRC in the
+    /// directory); `error` is the error of its coarsest cut.
+    Mt = 3,
 }
 
 impl RepKind {
@@ -184,6 +192,7 @@ impl RepKind {
             0 => Some(Self::Lod),
             1 => Some(Self::Hlod),
             2 => Some(Self::Vdt),
+            3 => Some(Self::Mt),
             _ => None,
         }
     }
@@ -227,9 +236,9 @@ impl RepRecord {
 
     /// Bytes the rep takes while resident: a mesh rep's expanded payload
     /// ([`rep_payload_len`] of its counts, whether stored compressed or
-    /// not), a view-dependence tree's in-core part (`len`).
+    /// not), a view-dependence tree's or MT's in-core part (`len`).
     pub fn resident_len(&self) -> u64 {
-        if self.is_vdt() {
+        if self.is_paged() {
             u64::from(self.len)
         } else {
             rep_payload_len(self.vertex_count as usize, self.tri_count as usize * 3) as u64
@@ -247,8 +256,20 @@ impl RepRecord {
         self.kind == RepKind::Vdt as u16
     }
 
+    /// Whether this rep is a Multi-Triangulation.
+    pub fn is_mt(&self) -> bool {
+        self.kind == RepKind::Mt as u16
+    }
+
+    /// Whether this rep is refined per frame and paged from its payload
+    /// range (a view-dependence tree or a Multi-Triangulation): P_I loads
+    /// its in-core part, P_R pages the rest through its own store.
+    pub fn is_paged(&self) -> bool {
+        self.is_vdt() || self.is_mt()
+    }
+
     /// Bytes the rep occupies in the data section (`len`, plus `aux` for a
-    /// view-dependence tree).
+    /// view-dependence tree or an MT).
     pub fn extent(&self) -> u64 {
         u64::from(self.len) + u64::from(self.aux)
     }

@@ -253,6 +253,13 @@ impl Skeleton {
                             r.len, r.aux
                         )));
                     }
+                } else if r.is_mt() {
+                    if r.len < 136 || r.aux == 0 {
+                        return Err(rep_err(format!(
+                            "Multi-Triangulation of {}+{} bytes is too short",
+                            r.len, r.aux
+                        )));
+                    }
                 } else {
                     // Stored raw (exactly `expect`) or compressed (shorter).
                     let expect = rep_payload_len(r.vertex_count as usize, r.tri_count as usize * 3);

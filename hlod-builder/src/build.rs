@@ -51,6 +51,11 @@ pub struct BuildParams {
     /// replaces the finer ones (a deep tree pages well: its root meta-nodes
     /// stay small).
     pub vdt_keep: usize,
+    /// Objects of at least this many triangles get a Multi-Triangulation as
+    /// their finest rep (0: none; checked before `vdt_tris`), keeping
+    /// `vdt_keep` static LODs too.
+    pub mt_tris: usize,
+    pub mt: crate::mt::MtRepParams,
     /// Reps on disk in the spatial layout (`layout`: selection band, then
     /// Morton order) rather than in the order they are made.
     pub spatial_layout: bool,
@@ -70,6 +75,8 @@ impl Default for BuildParams {
             hlod_ratio: 0.5,
             vdt_tris: 0,
             vdt_keep: 2,
+            mt_tris: 0,
+            mt: crate::mt::MtRepParams::default(),
             spatial_layout: true,
             compress_reps: true,
         }
@@ -107,6 +114,15 @@ impl BuildParams {
                 "--vdt-tris must exceed --leaf-tris (a tree's object is a leaf of its own)",
             );
         }
+        if self.mt_tris != 0 && self.mt_tris <= self.leaf_tris {
+            return bad("--mt-tris must exceed --leaf-tris (an MT's object is a leaf of its own)");
+        }
+        if !(1..=engine::mt::partition::MAX_THETA).contains(&self.mt.theta) {
+            return bad("--mt-theta must be in 1..=4096 nodes per partition");
+        }
+        if !(8..=256).contains(&self.mt.mt.cluster_tris) {
+            return bad("--mt-cluster-tris must be in 8..=256");
+        }
         if self.vdt_keep == 0 || self.vdt_keep >= l.max_levels {
             return bad("--vdt-keep must be in 1..--max-lods");
         }
@@ -141,6 +157,8 @@ pub struct BuildStats {
     pub chunked_objects: u64,
     /// Objects whose finest rep is a view-dependence tree.
     pub vdt_objects: u64,
+    /// Objects whose finest rep is a Multi-Triangulation.
+    pub mt_objects: u64,
     pub height: u32,
     pub reps: u64,
     /// Source triangles after instancing.
@@ -286,7 +304,8 @@ fn build_in_make_order<W: Write + std::io::Seek>(
         let mesh = imported.meshes[inst.mesh]
             .as_ref()
             .expect("instances refer to usable meshes");
-        if params.vdt_tris > 0 && mesh.tri_count() >= params.vdt_tris {
+        let mt = params.mt_tris > 0 && mesh.tri_count() >= params.mt_tris;
+        if mt || (params.vdt_tris > 0 && mesh.tri_count() >= params.vdt_tris) {
             let world = mesh.transformed(&inst.transform);
             cluster_items.push(ClusterItem {
                 bounds: world.bounds(),
@@ -295,6 +314,7 @@ fn build_in_make_order<W: Write + std::io::Seek>(
             items.push(Item::Tree {
                 mesh: world,
                 object: obj as u32,
+                mt,
             });
         } else if mesh.tri_count() > params.chunk_tris {
             stats.chunked_objects += 1;
@@ -424,7 +444,11 @@ fn build_in_make_order<W: Write + std::io::Seek>(
                 0.0,
             )?;
             if let Some(t) = vdt {
-                stats.vdt_objects += 1;
+                if t.kind == RepKind::Mt {
+                    stats.mt_objects += 1;
+                } else {
+                    stats.vdt_objects += 1;
+                }
                 recs.push(crate::vdt::write_rep(&mut writer, i as u32, &recs, &t)?);
             }
             finish_node(&mut nodes[i], &recs, &c.mesh, &[]);

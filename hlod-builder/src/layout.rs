@@ -89,10 +89,10 @@ pub fn relayout<S: ByteSource, W: Write + Seek>(
         // A tree rep moves whole: its in-core part and its paged part.
         buf.resize(rec.extent() as usize, 0);
         src.source().read_at(rec.offset, &mut buf)?;
-        if rec.is_vdt() || payloads == Payloads::Keep {
+        if rec.is_paged() || payloads == Payloads::Keep {
             // The same bytes (a tree's `len` and checksum cover only its
             // in-core part): only the offset changes.
-            rec.offset = if rec.is_vdt() {
+            rec.offset = if rec.is_paged() {
                 writer.write_tree_rep(&buf)?.offset
             } else {
                 writer.write_rep(&buf)?.offset

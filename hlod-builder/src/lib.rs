@@ -23,6 +23,7 @@ pub mod import;
 pub mod layout;
 pub mod lod;
 pub mod mesh;
+pub mod mt;
 pub mod scenegen;
 pub mod summary;
 pub mod vdt;

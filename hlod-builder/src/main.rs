@@ -1,5 +1,7 @@
 //! `hlod-build`: build, inspect and generate out-of-core scenes.
 
+mod mt_cmd;
+
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -48,6 +50,24 @@ enum Cmd {
     Gen(GenCmd),
     /// Build the view-dependence tree of each mesh of a model and report it
     /// (El-Sana & Chiang Table 1: input size, construction time, tree size).
+    /// Build the Multi-Triangulation of a model's largest mesh (Holst &
+    /// Schumann), check it, partition it and report it.
+    Mt {
+        input: PathBuf,
+        /// Nodes per partition, at most (the paper: up to 20 for one
+        /// object, 50-100 for scenes of many).
+        #[arg(long, default_value_t = 20)]
+        theta: u32,
+        /// Largest cluster (patch) in triangles.
+        #[arg(long, default_value_t = 16)]
+        cluster_tris: usize,
+        /// Clusters simplified together in one node.
+        #[arg(long, default_value_t = 8)]
+        group_clusters: usize,
+        /// Write the MT file, atomically.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
     Vdt {
         input: PathBuf,
         /// quadric or length.
@@ -94,9 +114,22 @@ struct BuildArgs {
     /// being split into chunks (0: none).
     #[arg(long, default_value_t = 0)]
     vdt_tris: usize,
-    /// How many of the coarsest static LODs such an object keeps below its tree.
+    /// How many of the coarsest static LODs such an object keeps below its
+    /// tree or MT.
     #[arg(long, default_value_t = 2)]
     vdt_keep: usize,
+    /// Objects of at least this many triangles get a Multi-Triangulation
+    /// (Holst & Schumann: patches paged by partitions, cut per frame) as
+    /// their finest rep (0: none; takes precedence over --vdt-tris).
+    #[arg(long, default_value_t = 0)]
+    mt_tris: usize,
+    /// MT nodes per partition, at most (the paper: 50-100 in scenes of many
+    /// objects).
+    #[arg(long, default_value_t = 64)]
+    mt_theta: u32,
+    /// Largest MT patch cluster in triangles.
+    #[arg(long, default_value_t = 16)]
+    mt_cluster_tris: usize,
     /// Order of the reps on disk: `spatial` (selection band, then Morton
     /// order: one frame's misses lie close together) or `build` (the order
     /// they are made: each leaf's chain, then the HLODs level by level).
@@ -132,6 +165,16 @@ enum GenCmd {
         seed: u64,
         #[arg(long, default_value_t = 6)]
         units: u32,
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// A closed scan-like surface of about TRIS triangles (a displaced
+    /// sphere; one mesh), for Multi-Triangulations and trees at any size.
+    Rock {
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[arg(long, default_value_t = 1_000_000, value_parser = engine_cli::in_range(32usize, 200_000_000))]
+        tris: usize,
         #[arg(short, long)]
         output: PathBuf,
     },
@@ -207,6 +250,29 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
+        Cmd::Gen(GenCmd::Rock { seed, tris, output }) => {
+            let (positions, normals, indices) = hlod_builder::scenegen::rock::rock(tris, seed);
+            let (n, t) = (positions.len(), indices.len() / 3);
+            let mesh = hlod_builder::mesh::Mesh {
+                positions,
+                normals,
+                colors: vec![[176, 164, 150, 255]; n],
+                indices,
+            };
+            let obj = hlod_builder::scenegen::glb::GlbObject {
+                name: "rock".into(),
+                mesh: 0,
+                transform: glam::Mat4::IDENTITY,
+            };
+            let bytes = hlod_builder::scenegen::glb::write_glb(&output, &[], &[mesh], &[obj])
+                .with_context(|| format!("cannot write {}", output.display()))?;
+            println!(
+                "{}: {t} triangles, {}",
+                output.display(),
+                human_bytes(bytes)
+            );
+            Ok(())
+        }
         Cmd::Gen(GenCmd::Lattice {
             seed,
             units,
@@ -223,6 +289,19 @@ fn run(cli: Cli) -> Result<()> {
             );
             Ok(())
         }
+        Cmd::Mt {
+            input,
+            theta,
+            cluster_tris,
+            group_clusters,
+            output,
+        } => mt_cmd::mt_report(
+            &input,
+            theta,
+            cluster_tris,
+            group_clusters,
+            output.as_deref(),
+        ),
         Cmd::Vdt {
             input,
             metric,
@@ -283,6 +362,14 @@ fn build(a: BuildArgs) -> Result<()> {
         hlod_ratio: a.hlod_ratio,
         vdt_tris: a.vdt_tris,
         vdt_keep: a.vdt_keep,
+        mt_tris: a.mt_tris,
+        mt: hlod_builder::mt::MtRepParams {
+            mt: hlod_builder::mt::MtParams {
+                cluster_tris: a.mt_cluster_tris,
+                ..Default::default()
+            },
+            theta: a.mt_theta,
+        },
         spatial_layout: match a.layout.as_str() {
             "spatial" => true,
             "build" => false,
@@ -299,10 +386,11 @@ fn build(a: BuildArgs) -> Result<()> {
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
     println!(
-        "wrote {} ({} objects split into chunks, {} with a view-dependence tree, {} degenerate triangles dropped)",
+        "wrote {} ({} objects split into chunks, {} with a view-dependence tree, {} with a Multi-Triangulation, {} degenerate triangles dropped)",
         a.output.display(),
         stats.chunked_objects,
         stats.vdt_objects,
+        stats.mt_objects,
         stats.input_triangles - stats.usable_triangles
     );
     Ok(())
@@ -324,13 +412,17 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
     let trees: Vec<u32> = (0..s.reps.len() as u32)
         .filter(|&r| s.reps[r as usize].is_vdt())
         .collect();
+    let mts: Vec<u32> = (0..s.reps.len() as u32)
+        .filter(|&r| s.reps[r as usize].is_mt())
+        .collect();
     let root = s.root().expect("validated scenes have a root");
     println!(
-        "format v{}, {} LODs + {} HLODs + {} view-dependence trees, bounds {:?} .. {:?}, root error {:.4}",
+        "format v{}, {} LODs + {} HLODs + {} view-dependence trees + {} Multi-Triangulations, bounds {:?} .. {:?}, root error {:.4}",
         scene.header().version,
         lods,
-        s.reps.len() - lods - trees.len(),
+        s.reps.len() - lods - trees.len() - mts.len(),
         trees.len(),
+        mts.len(),
         root.bbox_min,
         root.bbox_max,
         s.reps
@@ -380,7 +472,13 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
             human_bytes(rec.extent() - h.virt_offset),
         );
     }
-    let mesh_reps = s.reps.iter().filter(|r| !r.is_vdt());
+    for &r in &mts {
+        println!(
+            "{}",
+            mt_cmd::info_line(&scene, r).with_context(|| format!("{}: rep {r}", file.display()))?
+        );
+    }
+    let mesh_reps = s.reps.iter().filter(|r| !r.is_paged());
     let stored: u64 = mesh_reps.clone().map(|r| u64::from(r.len)).sum();
     let resident: u64 = mesh_reps.clone().map(|r| r.resident_len()).sum();
     println!(
@@ -404,7 +502,7 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
             "data: all {} reps read back and match their checksums; {} of {} mesh reps compressed, expanded at {:.0} MB/s ({} in {:.2} s on one core)",
             s.reps.len(),
             v.compressed,
-            s.reps.len() - trees.len(),
+            s.reps.len() - trees.len() - mts.len(),
             v.expanded_bytes as f64 / v.expand_s.max(1e-9) / 1e6,
             human_bytes(v.expanded_bytes),
             v.expand_s,
@@ -430,6 +528,10 @@ fn verify_data(scene: &engine::SceneFile<engine::io::FileSource>) -> Result<Data
         let rec = &s.reps[r as usize];
         if rec.is_vdt() {
             scene.verify_tree(r)?;
+            continue;
+        }
+        if rec.is_mt() {
+            scene.verify_mt(r)?;
             continue;
         }
         let stored = scene.read_rep_bytes(r)?;

@@ -16,6 +16,7 @@ pub fn stats_of<S: ByteSource>(scene: &SceneFile<S>) -> BuildStats {
         leaves: s.nodes.iter().filter(|n| n.is_leaf()).count() as u64,
         chunked_objects: 0,
         vdt_objects: s.reps.iter().filter(|r| r.is_vdt()).count() as u64,
+        mt_objects: s.reps.iter().filter(|r| r.is_mt()).count() as u64,
         height: s.height(),
         reps: s.reps.len() as u64,
         input_triangles: h.input_triangles,

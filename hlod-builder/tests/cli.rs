@@ -421,7 +421,7 @@ fn real_exports_build_or_fail_cleanly_and_warnings_print_either_way() {
     let info = hlod_build(&["info", "h.hlod"], d);
     let text = String::from_utf8_lossy(&info.stdout);
     assert!(
-        text.contains("format v3")
+        text.contains("format v4")
             && text.contains("B per input triangle")
             && text.contains("mesh reps compressed")
             && text.contains("origin 0 0 0")
@@ -441,5 +441,93 @@ fn real_exports_build_or_fail_cleanly_and_warnings_print_either_way() {
     assert!(
         err.contains("LINES") && err.contains("no renderable triangles"),
         "{err}"
+    );
+}
+
+#[test]
+fn mt_report_rock_generator_and_their_failures() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = hlod_build(&["gen", "rock", "--tris", "20000", "-o", "rock.glb"], d);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_clean_failure(
+        &hlod_build(&["gen", "rock", "--tris", "3", "-o", "r.glb"], d),
+        "--tris",
+        d,
+        1,
+    );
+    let out = hlod_build(&["mt", "rock.glb", "--theta", "20", "-o", "rock.mt"], d);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("\n| 0 | ") && text.contains("wrote rock.mt"),
+        "{text}"
+    );
+    let src = std::sync::Arc::new(engine::io::FileSource::open(&d.join("rock.mt")).unwrap());
+    let f = engine::mt::file::MtFile::open(src).unwrap();
+    assert!(f.header.node_count > 50 && f.parts.iter().all(|p| p.count <= 20));
+    for (args, needle) in [
+        (vec!["mt", "rock.glb", "--theta", "0"], "--theta"),
+        (vec!["mt", "rock.glb", "--theta", "5000"], "--theta"),
+        (
+            vec!["mt", "rock.glb", "--cluster-tris", "4"],
+            "--cluster-tris",
+        ),
+        (
+            vec!["mt", "rock.glb", "--group-clusters", "1"],
+            "--group-clusters",
+        ),
+        (vec!["mt", "missing.glb"], "missing.glb"),
+        (vec!["mt", "rock.glb", "-o", "rock.glb"], "rock.glb"),
+        (
+            vec!["build", "rock.glb", "-o", "r.hlod", "--mt-tris", "10"],
+            "--mt-tris",
+        ),
+        (
+            vec![
+                "build",
+                "rock.glb",
+                "-o",
+                "r.hlod",
+                "--mt-tris",
+                "5000",
+                "--mt-theta",
+                "0",
+            ],
+            "--mt-theta",
+        ),
+    ] {
+        assert_clean_failure(&hlod_build(&args, d), needle, d, 2);
+    }
+    let out = hlod_build(
+        &[
+            "build",
+            "rock.glb",
+            "-o",
+            "r.hlod",
+            "--mt-tris",
+            "5000",
+            "-q",
+        ],
+        d,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let info = hlod_build(&["info", "r.hlod"], d);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(
+        info.status.success() && text.contains("1 Multi-Triangulations") && text.contains("MT rep"),
+        "{text}"
     );
 }

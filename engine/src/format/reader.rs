@@ -141,10 +141,10 @@ impl<S: ByteSource> SceneFile<S> {
 
     /// Reads and decodes rep `rep` (a static mesh: not a view-dependence tree).
     pub fn read_rep(&self, rep: RepId) -> Result<RepMesh, FormatError> {
-        if self.record(rep)?.is_vdt() {
+        if self.record(rep)?.is_paged() {
             return Err(FormatError::BadRep {
                 rep,
-                reason: "a view-dependence tree, not a mesh".into(),
+                reason: "a view-dependence tree or MT, not a mesh".into(),
             });
         }
         let bytes = self.read_rep_bytes(rep)?;
@@ -168,11 +168,60 @@ impl<S: ByteSource> SceneFile<S> {
         Ok(file)
     }
 
+    /// Reads the whole embedded Multi-Triangulation of rep `rep` and opens
+    /// it (its in-core part checked against the record).
+    pub fn read_mt(&self, rep: RepId) -> Result<crate::mt::file::MtFile, FormatError> {
+        let rec = *self.record(rep)?;
+        let bad = |reason: String| FormatError::BadRep { rep, reason };
+        if !rec.is_mt() {
+            return Err(bad("not a Multi-Triangulation".into()));
+        }
+        let mut buf = crate::limits::alloc_bytes(rec.extent(), "a Multi-Triangulation")
+            .map_err(|e| bad(e.to_string()))?;
+        self.source.read_at(rec.offset, &mut buf)?;
+        check_rep_crc(rep, &rec, &buf[..rec.len as usize])?;
+        let file = crate::mt::file::MtFile::open(Arc::new(MemSource::new(buf)))
+            .map_err(|e| bad(e.to_string()))?;
+        let h = &file.header;
+        if h.data_offset != u64::from(rec.len)
+            || h.data_len != u64::from(rec.aux)
+            || h.input_triangles != u64::from(rec.tri_count)
+        {
+            return Err(bad(
+                "embedded Multi-Triangulation disagrees with its record".into(),
+            ));
+        }
+        Ok(file)
+    }
+
+    /// Reads MT rep `rep` and checks every node record.
+    pub fn verify_mt(&self, rep: RepId) -> Result<(), FormatError> {
+        let file = self.read_mt(rep)?;
+        for (n, r) in file
+            .read_nodes(0, file.header.node_count)
+            .map_err(|e| FormatError::BadRep {
+                rep,
+                reason: e.to_string(),
+            })?
+            .into_iter()
+            .enumerate()
+        {
+            r.map_err(|e| FormatError::BadRep {
+                rep,
+                reason: format!("MT node {n}: {e}"),
+            })?;
+        }
+        Ok(())
+    }
+
     /// Reads and decodes every rep (every meta-node of a view-dependence
-    /// tree): a full integrity check of the data section.
+    /// tree, every node of an MT): a full integrity check of the data
+    /// section.
     pub fn verify_all_reps(&self) -> Result<(), FormatError> {
         for rep in 0..self.skeleton.reps.len() as RepId {
-            if self.skeleton.reps[rep as usize].is_vdt() {
+            if self.skeleton.reps[rep as usize].is_mt() {
+                self.verify_mt(rep)?;
+            } else if self.skeleton.reps[rep as usize].is_vdt() {
                 self.verify_tree(rep)?;
             } else {
                 self.read_rep(rep)?;
@@ -325,7 +374,7 @@ fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
             }
             v1.upgrade()
         }
-        2 | VERSION => {
+        2..=VERSION => {
             let hsize = size_of::<FileHeader>();
             if have < hsize as u64 {
                 return Err(truncated(hsize as u64));

@@ -177,7 +177,7 @@ impl OcclusionCuller {
     /// node's box): its occluder triangles are kept (when the box is large
     /// on the screen), and go into the buffer after the frame.
     pub fn drawn(&mut self, r: RepId, rec: &RepRecord, payload: &Arc<[u8]>, bbox: (Vec3, Vec3)) {
-        if rec.is_vdt() || self.buffer.is_none() {
+        if rec.is_paged() || self.buffer.is_none() {
             return;
         }
         if !self.store.contains(r) {

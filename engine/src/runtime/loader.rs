@@ -535,7 +535,7 @@ impl Loader {
         let scratch = load_scratch(&rec);
         let len = self.cost(r) + scratch;
         // In core, a tree comes whole (P_R then refines it without paging).
-        let read = if self.params.mode == Mode::Incore && rec.is_vdt() {
+        let read = if self.params.mode == Mode::Incore && rec.is_paged() {
             rec.extent()
         } else {
             u64::from(rec.len)
@@ -679,7 +679,7 @@ impl Loader {
 /// is read into a buffer of its stored size and then expanded, and both
 /// count until the stored bytes are dropped.
 pub(super) fn load_scratch(rec: &RepRecord) -> u64 {
-    if rec.is_vdt() || rec.resident_len() == u64::from(rec.len) {
+    if rec.is_paged() || rec.resident_len() == u64::from(rec.len) {
         0
     } else {
         u64::from(rec.len)

@@ -27,6 +27,7 @@ mod fade_tests;
 #[cfg(test)]
 mod fault_tests;
 mod loader;
+mod mts;
 mod params;
 pub mod resident;
 mod select;
@@ -162,6 +163,7 @@ impl Walkthrough {
             skeleton.clone(),
             pools.clone(),
             params.mode == Mode::Incore,
+            params.mt_cache,
         );
         let (cmd_tx, cmd_rx) = bounded(2);
         let (reply_tx, reply_rx) = bounded(256);
@@ -275,7 +277,7 @@ impl Walkthrough {
             (self.clock.now() - self.origin).as_secs_f64(),
             &front,
             |r| skel.par(r),
-            |r| !skel.reps[r as usize].is_vdt(),
+            |r| !skel.reps[r as usize].is_paged(),
         );
         let front = Arc::new(front);
         self.cmd
@@ -350,7 +352,16 @@ impl Walkthrough {
                 .send(Cmd::Unusable(r))
                 .map_err(|_| RuntimeError::LoaderGone)?;
         }
-        m.front_tris += tf.tris;
+        m.front_tris += tf.tris + tf.mt_tris;
+        m.mt_trees = tf.mt_trees;
+        m.mt_cut_arcs = tf.mt_arcs;
+        m.mt_tris = tf.mt_tris;
+        m.mt_adapt = tf.mt_adapt;
+        m.mt_reads = tf.mt_reads;
+        m.mt_partitions = tf.mt_partitions;
+        m.mt_read_bytes = tf.mt_read_bytes;
+        m.mt_misses = tf.mt_misses;
+        m.mt_nodes = tf.mt_nodes;
         m.vdt_trees = tf.trees;
         m.adapt = tf.adapt;
         m.vdt_tris = tf.tris;
@@ -385,14 +396,14 @@ impl Walkthrough {
             payload,
         } = d;
         let rec = &self.skeleton.reps[rep as usize];
-        if rec.is_vdt() {
-            let before = tf.tris;
+        if rec.is_paged() {
+            let before = tf.tris + tf.mt_tris;
             if self
                 .trees
                 .draw(rep, &payload, view, self.frame_tol, renderer, tf)
             {
                 m.drawn_reps += 1;
-                m.drawn_tris += tf.tris - before;
+                m.drawn_tris += tf.tris + tf.mt_tris - before;
             } else {
                 m.substituted += 1;
                 unusable.push(rep);

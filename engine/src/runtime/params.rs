@@ -106,9 +106,14 @@ pub struct RuntimeParams {
     /// when it expects to finish before the next fetch command is due.
     pub frame_period_s: f32,
     /// Place-holder bytes reserved for each resident view-dependence tree
+    /// (and node bytes for each Multi-Triangulation)
     /// (raised to what its root meta-nodes need, capped at its meta-node
     /// data), out of the same footprint as the reps.
     pub vdt_pool_bytes: u64,
+    /// Which nodes a Multi-Triangulation's store keeps after a frame (the
+    /// paper's caching, P,C, by default; its reserve is planned as the
+    /// trees' from `vdt_pool_bytes`).
+    pub mt_cache: crate::mt::cache::CacheMode,
     /// Longest gap between two wanted reps that P_I reads through instead
     /// of seeking over (the break-even gap is learnt; this caps it; 0: off).
     pub coalesce_max_gap: u64,
@@ -146,6 +151,7 @@ impl Default for RuntimeParams {
             prefetch: PrefetchParams::default(),
             frame_period_s: 0.0,
             vdt_pool_bytes: 4 << 20,
+            mt_cache: crate::mt::cache::CacheMode::PC,
             coalesce_max_gap: 1 << 20,
             stall_deadline_s: 0.0,
             occlusion_bytes: 0,

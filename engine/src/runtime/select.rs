@@ -80,7 +80,7 @@ impl FrontSelect {
         for &r in &out.front {
             let rec = &s.reps[r as usize];
             cost.bytes += rec.resident_len();
-            if !rec.is_vdt() {
+            if !rec.is_paged() {
                 cost.tris += u64::from(rec.tri_count);
             }
         }

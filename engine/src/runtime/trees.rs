@@ -46,11 +46,15 @@ pub(super) fn plan_pools(skeleton: &Skeleton, source: &dyn ByteSource, wanted: u
         .iter()
         .enumerate()
         .map(|(r, rec)| {
-            if !rec.is_vdt() {
+            let plan = if rec.is_vdt() {
+                plan_one(source, rec, wanted)
+            } else if rec.is_mt() {
+                super::mts::plan(source, rec, wanted)
+            } else {
                 return 0;
-            }
-            plan_one(source, rec, wanted).unwrap_or_else(|why| {
-                tracing::warn!("tree rep {r}: {why}; its finest static LOD is drawn instead");
+            };
+            plan.unwrap_or_else(|why| {
+                tracing::warn!("paged rep {r}: {why}; its finest static LOD is drawn instead");
                 UNUSABLE
             })
         })
@@ -60,7 +64,7 @@ pub(super) fn plan_pools(skeleton: &Skeleton, source: &dyn ByteSource, wanted: u
 /// Why a view-dependence tree cannot be used (its finest static LOD is
 /// drawn instead).
 #[derive(Debug, thiserror::Error)]
-enum TreeError {
+pub(super) enum TreeError {
     #[error("its header is longer than its rep record")]
     Header,
     #[error("its header and root records disagree with the rep record")]
@@ -71,6 +75,10 @@ enum TreeError {
     Vdt(#[from] crate::vdt::file::VdtError),
     #[error(transparent)]
     Format(#[from] crate::format::FormatError),
+    #[error(transparent)]
+    Mt(#[from] crate::mt::file::MtFileError),
+    #[error(transparent)]
+    MtStore(#[from] crate::mt::store::MtStoreError),
 }
 
 fn plan_one(source: &dyn ByteSource, rec: &RepRecord, wanted: u64) -> Result<u64, TreeError> {
@@ -123,6 +131,17 @@ pub(super) struct TreeFrame {
     pub misses: u32,
     pub metas_loaded: u32,
     pub ms: f64,
+    /// Multi-Triangulations drawn, their cut arcs and triangles, reads and
+    /// partitions read this frame, misses and nodes in core.
+    pub mt_trees: u32,
+    pub mt_arcs: u32,
+    pub mt_tris: u64,
+    pub mt_adapt: u32,
+    pub mt_reads: u32,
+    pub mt_partitions: u32,
+    pub mt_read_bytes: u64,
+    pub mt_misses: u32,
+    pub mt_nodes: u32,
 }
 
 /// P_R's live trees.
@@ -132,6 +151,8 @@ pub(super) struct Trees {
     pools: Arc<Vec<u64>>,
     incore: bool,
     live: BTreeMap<RepId, Tree>,
+    mts: BTreeMap<RepId, super::mts::MtLive>,
+    mt_mode: crate::mt::cache::CacheMode,
 }
 
 impl Trees {
@@ -140,6 +161,7 @@ impl Trees {
         skeleton: Arc<Skeleton>,
         pools: Arc<Vec<u64>>,
         incore: bool,
+        mt_mode: crate::mt::cache::CacheMode,
     ) -> Self {
         Self {
             source,
@@ -147,6 +169,8 @@ impl Trees {
             pools,
             incore,
             live: BTreeMap::new(),
+            mts: BTreeMap::new(),
+            mt_mode,
         }
     }
 
@@ -158,12 +182,14 @@ impl Trees {
                 Store::Ext(s) => s.resident_bytes(),
                 Store::Core(_, bytes) => *bytes,
             })
-            .sum()
+            .sum::<u64>()
+            + self.mts.values().map(|m| m.bytes()).sum::<u64>()
     }
 
     /// P_I evicted rep `r`: its store goes with it.
     pub(super) fn evict(&mut self, r: RepId) {
         self.live.remove(&r);
+        self.mts.remove(&r);
     }
 
     fn open(&self, r: RepId, payload: &Arc<[u8]>) -> Result<Tree, TreeError> {
@@ -208,13 +234,51 @@ impl Trees {
         out: &mut TreeFrame,
     ) -> bool {
         let t0 = Instant::now();
-        let done = self.refine_and_draw(r, payload, view, tolerance_px, renderer, out);
+        let done = if self.skeleton.reps[r as usize].is_mt() {
+            self.cut_and_draw(r, payload, view, tolerance_px, renderer, out)
+        } else {
+            self.refine_and_draw(r, payload, view, tolerance_px, renderer, out)
+        };
         out.ms += t0.elapsed().as_secs_f64() * 1e3;
         if let Err(why) = &done {
-            tracing::warn!("tree rep {r}: {why}; its finest static LOD is drawn instead");
+            tracing::warn!("paged rep {r}: {why}; its finest static LOD is drawn instead");
             self.live.remove(&r);
+            self.mts.remove(&r);
         }
         done.is_ok()
+    }
+
+    fn cut_and_draw(
+        &mut self,
+        r: RepId,
+        payload: &Arc<[u8]>,
+        view: &View,
+        tolerance_px: f32,
+        renderer: &mut dyn Renderer,
+        out: &mut TreeFrame,
+    ) -> Result<(), TreeError> {
+        let rec = self.skeleton.reps[r as usize];
+        if !self.mts.contains_key(&r) {
+            // In core the payload is the whole file and nothing limits the
+            // store but the file itself.
+            let pool = if self.incore {
+                u64::MAX
+            } else {
+                self.pools[r as usize]
+            };
+            let m =
+                super::mts::MtLive::open(self.source.clone(), &rec, payload, pool, self.mt_mode)?;
+            self.mts.insert(r, m);
+        }
+        let color = self.skeleton.nodes[rec.node as usize].color.to_le_bytes();
+        let m = self.mts.get_mut(&r).expect("inserted above");
+        let had = m.mesh.as_ref().map(|x| x.1.clone());
+        let (mrec, mesh) = m.frame(&rec, color, view, tolerance_px, out);
+        if had.is_some_and(|h| !Arc::ptr_eq(&h, mesh)) {
+            renderer.evict(r);
+        }
+        renderer.draw(r, mrec, mesh, crate::render::DrawStyle::opaque(false));
+        Ok(())
     }
 
     fn refine_and_draw(

@@ -384,3 +384,72 @@ fn path_files_endless_with_a_bom_and_errors_said_once() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.matches("No such file").count(), 1, "{err}");
 }
+
+#[test]
+fn mt_bench_draws_the_papers_figures_and_refuses_nonsense() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (p, n, i) = hlod_builder::scenegen::rock::rock(30_000, 2);
+    let m = hlod_builder::mt::build_mt(&p, &n, &i, &Default::default()).unwrap();
+    let parts = engine::mt::partition(&m, 20).unwrap();
+    std::fs::write(
+        d.join("rock.mt"),
+        engine::mt::file::encode(&m, &parts).unwrap(),
+    )
+    .unwrap();
+    let mt = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_mt-bench"))
+            .args(args)
+            .current_dir(d)
+            .output()
+            .unwrap()
+    };
+    let out = mt(&["rock.mt", "--frames", "60", "--out", "o"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in [
+        "summary.md",
+        "frames.csv",
+        "io-rock-far-near.png",
+        "memory-rock-rotate.png",
+    ] {
+        assert!(d.join("o").join(f).exists(), "{f}");
+    }
+    // Same cuts in every mode (no footprint pressure), so what each keeps
+    // nests: P,NC within P,C within P,CC; reads the other way round.
+    let csv = std::fs::read_to_string(d.join("o/frames.csv")).unwrap();
+    for path in ["far-near", "rotate"] {
+        let last = |mode: &str, col: usize| -> (u64, u64) {
+            let rows: Vec<Vec<String>> = csv
+                .lines()
+                .map(|l| l.split(',').map(str::to_string).collect::<Vec<_>>())
+                .filter(|r| r[1] == path && r[2] == mode)
+                .collect();
+            let sum: u64 = rows.iter().map(|r| r[col].parse::<u64>().unwrap()).sum();
+            (rows.last().unwrap()[4].parse().unwrap(), sum)
+        };
+        let (pnc, pc, pcc) = (last("p-nc", 7), last("p-c", 7), last("p-cc", 7));
+        assert!(
+            pcc.0 <= pc.0 && pc.0 <= pnc.0,
+            "{path}: reads {pcc:?} {pc:?} {pnc:?}"
+        );
+        assert!(pnc.1 <= pc.1 && pc.1 <= pcc.1, "{path}: memory");
+    }
+    assert_fails(&mt(&["missing.mt", "--out", "x"]), "missing.mt");
+    std::fs::write(d.join("junk.mt"), b"not an MT file at all, just bytes").unwrap();
+    assert_fails(&mt(&["junk.mt", "--out", "x"]), "junk.mt");
+    assert_fails(&mt(&["rock.mt", "--modes", "lru", "--out", "x"]), "--modes");
+    assert_fails(&mt(&["rock.mt", "--frames", "1", "--out", "x"]), "--frames");
+    assert_fails(
+        &mt(&["rock.mt", "--tolerance", "0", "--out", "x"]),
+        "--tolerance",
+    );
+    assert_fails(
+        &mt(&["rock.mt", "--budget", "1KiB", "--out", "x"]),
+        "footprint",
+    );
+    assert!(!d.join("x").exists(), "nothing written");
+}

@@ -22,10 +22,12 @@ pub(super) enum Item {
         mesh: Mesh,
         object: u32,
     },
-    /// A large object in world space, whose finest rep is a view-dependence tree.
+    /// A large object in world space, whose finest rep is a view-dependence
+    /// tree (or a Multi-Triangulation, with `mt`).
     Tree {
         mesh: Mesh,
         object: u32,
+        mt: bool,
     },
 }
 
@@ -109,8 +111,12 @@ pub(super) fn leaf_levels<'a>(
                 };
                 return (lod_chain(mesh, &lod), None, None);
             }
-            Item::Tree { mesh, .. } => {
-                let (levels, tree) = crate::vdt::tree_levels(mesh, &params.lod, params.vdt_keep);
+            Item::Tree { mesh, mt, .. } => {
+                let (levels, tree) = if *mt {
+                    crate::mt::mt_levels(mesh, &params.lod, params.vdt_keep, &params.mt)
+                } else {
+                    crate::vdt::tree_levels(mesh, &params.lod, params.vdt_keep)
+                };
                 return (levels, tree, None);
             }
         }

@@ -4,5 +4,6 @@
 pub mod glb;
 pub mod lattice;
 pub mod plant;
+pub mod rock;
 pub mod shapes;
 pub mod tile;

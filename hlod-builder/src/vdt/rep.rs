@@ -20,11 +20,16 @@ use super::{Metric, VdtParams, build_tree};
 use crate::lod::{Level, LodParams, lod_chain};
 use crate::mesh::Mesh;
 
-/// A built tree, ready to be written.
+/// A built paged rep (a view-dependence tree or a Multi-Triangulation),
+/// ready to be written.
 #[derive(Debug)]
 pub struct TreeRep {
-    /// The encoded `.vdt` file.
+    /// [`RepKind::Vdt`] or [`RepKind::Mt`].
+    pub kind: RepKind,
+    /// The encoded `.vdt` or MT file.
     pub bytes: Vec<u8>,
+    /// Bytes of its in-core part (the record's `len`).
+    pub core: usize,
     /// The tree's coarsest switch value plus the quantisation error of
     /// drawing it over its box.
     pub error: f32,
@@ -70,8 +75,13 @@ pub fn tree_levels(mesh: &Mesh, lod: &LodParams, keep: usize) -> (Vec<Level>, Op
         Vec::new(),
     )
     .quantization_error();
+    let bytes = encode(&tree, levels_for_block(BLOCK as usize));
+    let core = engine::vdt::file::VdtHeader::rep_len(&bytes)
+        .expect("an encoded tree has a header and its roots");
     let rep = TreeRep {
-        bytes: encode(&tree, levels_for_block(BLOCK as usize)),
+        kind: RepKind::Vdt,
+        bytes,
+        core,
         error: coarsest + quantisation,
         tri_count: tree.triangles.len() as u32,
         vertex_count: tree.positions.len() as u32,
@@ -81,7 +91,7 @@ pub fn tree_levels(mesh: &Mesh, lod: &LodParams, keep: usize) -> (Vec<Level>, Op
     (chain, Some(rep))
 }
 
-/// Writes the tree after the node's static reps `below` (coarsest first) and
+/// Writes the tree (or MT) after the node's static reps `below` (coarsest first) and
 /// returns its record, its error kept strictly under the finest static one.
 pub fn write_rep<W: Write + Seek>(
     writer: &mut SceneWriter<W>,
@@ -90,8 +100,7 @@ pub fn write_rep<W: Write + Seek>(
     t: &TreeRep,
 ) -> Result<RepRecord, FormatError> {
     let finest = below.last().map_or(f32::INFINITY, |r| r.error);
-    let core = engine::vdt::file::VdtHeader::rep_len(&t.bytes)
-        .ok_or_else(|| FormatError::BadHeader("encoded tree without a header".into()))?;
+    let core = t.core;
     let loc = writer.write_tree_rep(&t.bytes)?;
     let error = if t.error < finest {
         t.error
@@ -103,7 +112,7 @@ pub fn write_rep<W: Write + Seek>(
         bbox_max: t.bbox_max,
         node,
         index: below.len() as u16,
-        kind: RepKind::Vdt as u16,
+        kind: t.kind as u16,
         error,
         checksum: crc32fast::hash(&t.bytes[..core]),
         offset: loc.offset,

@@ -6,6 +6,7 @@ mod conformance;
 mod corrupt_gltf;
 mod fade;
 mod layout;
+mod mt_scene;
 mod objects;
 mod occlusion;
 mod render;

@@ -5,6 +5,7 @@
 
 mod bounds;
 mod fidelity;
+mod mt_table;
 mod plots;
 
 use std::path::{Path, PathBuf};
@@ -135,6 +136,10 @@ struct Args {
     /// or a percentage of the scene data), out of the footprint.
     #[arg(long, default_value = "4MiB")]
     vdt_pool: String,
+    /// What a Multi-Triangulation's store keeps after a frame: p-c (the
+    /// paper's caching), p-cc, p-nc or np-nc.
+    #[arg(long, default_value = "p-c")]
+    mt_cache: String,
     /// Longest gap P_I reads through rather than seeking over (the
     /// break-even gap is learnt; this caps it); 0 turns coalescing off.
     #[arg(long, default_value = "1MiB")]
@@ -298,6 +303,9 @@ fn run(a: Args) -> Result<()> {
         },
         frame_period_s: if a.fps > 0.0 { 1.0 / a.fps } else { 0.0 },
         vdt_pool_bytes: vdt_pool,
+        mt_cache: engine::mt::cache::CacheMode::parse(&a.mt_cache).with_context(|| {
+            format!("--mt-cache {:?}: use p-c, p-cc, p-nc or np-nc", a.mt_cache)
+        })?,
         coalesce_max_gap: coalesce_gap,
         stall_deadline_s: a.stall_deadline / 1e3,
         governor: (a.governor || a.max_tris > 0 || a.max_frame_ms > 0.0).then_some(
@@ -510,6 +518,12 @@ fn run(a: Args) -> Result<()> {
     let mut table = summary_table(&rows);
     if skel.reps.iter().any(|r| r.is_vdt()) {
         table.push_str(&format!("\nView-dependence trees:\n\n{}", vdt_table(&rows)));
+    }
+    if skel.reps.iter().any(|r| r.is_mt()) {
+        table.push_str(&format!(
+            "\nMulti-Triangulations:\n\n{}",
+            mt_table::mt_table(&rows)
+        ));
     }
     if a.stall_deadline > 0.0 {
         table.push_str(&format!(

@@ -78,7 +78,7 @@ fn save(path: &Path, f: impl FnOnce(&Area<'_>) -> Result<()>) -> Result<()> {
 }
 
 /// Line series per run of `value(frame)` over the frame index.
-fn per_frame(
+pub fn per_frame(
     path: &Path,
     title: &str,
     y_label: &str,
