@@ -11,18 +11,16 @@
 //!   `(-1, -1)` after it is read. A cut arc found by a top-down step sets
 //!   `T_min` of its father's and its child's partition by rule (1), one
 //!   found by a bottom-up step sets `T_max` by rule (2), and an arc already
-//!   in the last frame's cut only sets both frames to `f`. Resident nodes
-//!   sit in a queue by the last frame they were on the cut; after the
-//!   frame the queue is walked from the oldest up to the current frame: a
-//!   node on the cut moves to the current frame, one that passes rule (3)
-//!   `(f_min = f ∧ l_n > l_min) ∨ (f_max = f ∧ l_n > l_max)` stays, any
-//!   other is deleted.
+//!   in the last frame's cut only sets both frames to `f`. Every resident
+//!   node carries the last frame it was on the cut (the paper's queue);
+//!   after the frame a node on the cut takes the current frame, and every
+//!   other (what the paper's walk up to the current frame visits) stays if
+//!   it passes rule (3) `(f_min = f ∧ l_n > l_min) ∨ (f_max = f ∧ l_n >
+//!   l_max)` and is deleted otherwise.
 //!
 //! Within a frame the new arcs' tuple updates are applied before the old
 //! arcs' (which then only touch the frames), so the result does not depend
 //! on the order arcs are visited.
-
-use std::collections::{BTreeMap, BTreeSet};
 
 /// Which nodes stay in core after a frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -82,123 +80,181 @@ pub enum Mark {
 /// A frame and layer; `(-1, -1)` until set.
 pub type Tuple = (i64, i64);
 
+/// One node's state while resident.
+#[derive(Clone, Copy, Debug)]
+struct Slot {
+    part: u32,
+    layer: u32,
+    /// The last frame it was on the cut (-1: not yet).
+    last: i64,
+    /// Index in `NodeCache::resident`.
+    at: u32,
+}
+
+/// A partition's state while partly in core.
+#[derive(Clone, Copy, Debug)]
+struct Part {
+    in_core: u32,
+    tmin: Tuple,
+    tmax: Tuple,
+    /// The frame a node of it was last seen on the cut (for P,CC).
+    on_cut: i64,
+}
+
 /// The caching policy's state: resident nodes, their layers and
-/// partitions, the queue and the tuples.
+/// partitions, when each was last on the cut, and the tuples. Dense
+/// tables by node and partition id; the resident nodes also as a list, so
+/// that the end of a frame visits only them. The paper's queue by last
+/// frame on the cut is [`NodeCache::oldest`]: the walk it describes visits
+/// every resident node off the cut (those kept by rule (3) stay at its
+/// front), which the list does without keeping the queue sorted.
 #[derive(Clone, Debug)]
 pub struct NodeCache {
     pub mode: CacheMode,
-    /// Resident node → (partition, layer, last frame on the cut).
-    nodes: BTreeMap<u32, (u32, u32, i64)>,
-    queue: BTreeSet<(i64, u32)>,
-    /// Resident nodes per partition.
-    in_core: BTreeMap<u32, u32>,
-    tmin: BTreeMap<u32, Tuple>,
-    tmax: BTreeMap<u32, Tuple>,
+    nodes: Vec<Option<Slot>>,
+    resident: Vec<u32>,
+    parts: Vec<Option<Part>>,
 }
 
 impl NodeCache {
     pub fn new(mode: CacheMode) -> Self {
         Self {
             mode,
-            nodes: BTreeMap::new(),
-            queue: BTreeSet::new(),
-            in_core: BTreeMap::new(),
-            tmin: BTreeMap::new(),
-            tmax: BTreeMap::new(),
+            nodes: Vec::new(),
+            resident: Vec::new(),
+            parts: Vec::new(),
         }
     }
 
+    fn slot(&self, n: u32) -> Option<&Slot> {
+        self.nodes.get(n as usize).and_then(Option::as_ref)
+    }
+
+    fn part_mut(&mut self, p: u32) -> &mut Option<Part> {
+        if self.parts.len() <= p as usize {
+            self.parts.resize(p as usize + 1, None);
+        }
+        &mut self.parts[p as usize]
+    }
+
     pub fn is_resident(&self, n: u32) -> bool {
-        self.nodes.contains_key(&n)
+        self.slot(n).is_some()
     }
 
     pub fn len(&self) -> usize {
-        self.nodes.len()
+        self.resident.len()
     }
 
     pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty()
+        self.resident.is_empty()
     }
 
     /// The tuples of partition `p` (while it is partly in core).
     pub fn tuples(&self, p: u32) -> Option<(Tuple, Tuple)> {
-        Some((*self.tmin.get(&p)?, *self.tmax.get(&p)?))
+        let q = self.parts.get(p as usize)?.as_ref()?;
+        Some((q.tmin, q.tmax))
     }
 
     /// Partition `p` was read: its tuples start over at `(-1, -1)`.
     pub fn partition_read(&mut self, p: u32) {
-        self.tmin.insert(p, (-1, -1));
-        self.tmax.insert(p, (-1, -1));
+        let q = self.part_mut(p).get_or_insert(Part {
+            in_core: 0,
+            tmin: (-1, -1),
+            tmax: (-1, -1),
+            on_cut: -1,
+        });
+        q.tmin = (-1, -1);
+        q.tmax = (-1, -1);
     }
 
-    /// Node `n` (of partition `p`, layer `l`) came into core; it enters the
-    /// queue at frame -1. A node already resident is left as it is.
+    /// Node `n` (of partition `p`, layer `l`) came into core, not yet on a
+    /// cut. A node already resident is left as it is.
     pub fn loaded(&mut self, n: u32, p: u32, l: u32) {
-        if self.nodes.contains_key(&n) {
+        if self.is_resident(n) {
             return;
         }
-        self.nodes.insert(n, (p, l, -1));
-        self.queue.insert((-1, n));
-        *self.in_core.entry(p).or_default() += 1;
-        self.tmin.entry(p).or_insert((-1, -1));
-        self.tmax.entry(p).or_insert((-1, -1));
+        if self.nodes.len() <= n as usize {
+            self.nodes.resize(n as usize + 1, None);
+        }
+        self.nodes[n as usize] = Some(Slot {
+            part: p,
+            layer: l,
+            last: -1,
+            at: self.resident.len() as u32,
+        });
+        self.resident.push(n);
+        self.part_mut(p)
+            .get_or_insert(Part {
+                in_core: 0,
+                tmin: (-1, -1),
+                tmax: (-1, -1),
+                on_cut: -1,
+            })
+            .in_core += 1;
     }
 
     /// Removes node `n` from core (its partition's tuples go with the last
     /// one).
     pub fn remove(&mut self, n: u32) {
-        let Some((p, _, last)) = self.nodes.remove(&n) else {
+        let Some(s) = self.nodes.get_mut(n as usize).and_then(Option::take) else {
             return;
         };
-        self.queue.remove(&(last, n));
-        let c = self.in_core.get_mut(&p).expect("counted");
-        *c -= 1;
-        if *c == 0 {
-            self.in_core.remove(&p);
-            self.tmin.remove(&p);
-            self.tmax.remove(&p);
+        self.resident.swap_remove(s.at as usize);
+        if let Some(&moved) = self.resident.get(s.at as usize) {
+            self.nodes[moved as usize].as_mut().expect("resident").at = s.at;
+        }
+        let q = self.parts[s.part as usize].as_mut().expect("counted");
+        q.in_core -= 1;
+        if q.in_core == 0 {
+            self.parts[s.part as usize] = None;
         }
     }
 
-    /// The resident nodes, least recently on the cut first (candidates for
-    /// eviction under memory pressure).
-    pub fn oldest(&self) -> impl Iterator<Item = u32> + '_ {
-        self.queue.iter().map(|&(_, n)| n)
+    /// The resident nodes, least recently on the cut first (then by id):
+    /// the order evictions take under memory pressure.
+    pub fn oldest(&self) -> Vec<u32> {
+        let mut v: Vec<(i64, u32)> = self
+            .resident
+            .iter()
+            .map(|&n| (self.slot(n).expect("resident").last, n))
+            .collect();
+        v.sort_unstable();
+        v.into_iter().map(|(_, n)| n).collect()
     }
 
     /// Applies rules (1) and (2) for one endpoint of a new cut arc.
     fn touch_new(&mut self, n: u32, f: i64, mark: Mark) {
-        let Some(&(p, l, _)) = self.nodes.get(&n) else {
+        let Some(&Slot { part, layer, .. }) = self.slot(n) else {
             return;
         };
+        let q = self.parts[part as usize]
+            .as_mut()
+            .expect("resident partition");
         let t = match mark {
-            Mark::TopDown => self.tmin.get_mut(&p),
-            Mark::BottomUp => self.tmax.get_mut(&p),
+            Mark::TopDown => &mut q.tmin,
+            Mark::BottomUp => &mut q.tmax,
             Mark::Old => return,
         };
-        let t = t.expect("resident partitions have tuples");
-        let l = i64::from(l);
+        let l = i64::from(layer);
         *t = if t.0 == f { (f, t.1.min(l)) } else { (f, l) };
     }
 
     fn touch_old(&mut self, n: u32, f: i64) {
-        let Some(&(p, _, _)) = self.nodes.get(&n) else {
+        let Some(&Slot { part, .. }) = self.slot(n) else {
             return;
         };
-        for t in [self.tmin.get_mut(&p), self.tmax.get_mut(&p)]
-            .into_iter()
-            .flatten()
-        {
-            t.0 = f;
-        }
+        let q = self.parts[part as usize]
+            .as_mut()
+            .expect("resident partition");
+        q.tmin.0 = f;
+        q.tmax.0 = f;
     }
 
     /// Ends frame `f`: `arcs` are the cut's arcs as (father, child or
     /// `None` for the drain, mark); `part_of` gives any node's partition.
-    /// Nodes on the cut (an end of a cut arc) move to frame `f`; the queue
-    /// is then walked up to frame `f`, so only the nodes off the cut are
-    /// visited. Returns the nodes to delete (already removed here),
-    /// ascending.
+    /// Nodes on the cut (an end of a cut arc) are marked as on it in frame
+    /// `f`; every other resident node is kept or deleted by the mode's
+    /// rule. Returns the nodes deleted (already removed here), ascending.
     pub fn end_frame(
         &mut self,
         f: i64,
@@ -217,29 +273,28 @@ impl NodeCache {
                 self.touch_old(c, f);
             }
         }
-        let mut parts_on_cut = BTreeSet::new();
         for &(h, c, _) in arcs {
             for n in std::iter::once(h).chain(c) {
-                if self.mode == CacheMode::PCc {
-                    parts_on_cut.insert(part_of(n));
+                if let Some(Some(s)) = self.nodes.get_mut(n as usize) {
+                    s.last = f;
                 }
-                if let Some(e) = self.nodes.get_mut(&n)
-                    && e.2 != f
+                if self.mode == CacheMode::PCc
+                    && let Some(Some(q)) = self.parts.get_mut(part_of(n) as usize)
                 {
-                    self.queue.remove(&(e.2, n));
-                    e.2 = f;
-                    self.queue.insert((f, n));
+                    q.on_cut = f;
                 }
             }
         }
-        let stale: Vec<u32> = self.queue.range(..(f, 0)).map(|&(_, n)| n).collect();
-        let mut gone = Vec::new();
-        for n in stale {
-            let (p, l, _) = self.nodes[&n];
+        let mut gone: Vec<u32> = Vec::new();
+        for &n in &self.resident {
+            let s = self.slot(n).expect("resident");
+            if s.last == f {
+                continue;
+            }
             let keep = match self.mode {
                 CacheMode::NpNc | CacheMode::PNc => false,
-                CacheMode::PCc => parts_on_cut.contains(&p),
-                CacheMode::PC => self.rule3(p, l, f),
+                CacheMode::PCc => self.parts[s.part as usize].expect("resident").on_cut == f,
+                CacheMode::PC => self.rule3(s.part, s.layer, f),
             };
             if !keep {
                 gone.push(n);
@@ -255,7 +310,9 @@ impl NodeCache {
     /// Rule (3) for a node of partition `p` at layer `l` in frame `f`.
     pub fn rule3(&self, p: u32, l: u32, f: i64) -> bool {
         let l = i64::from(l);
-        let (tn, tx) = (self.tmin[&p], self.tmax[&p]);
+        let (tn, tx) = self
+            .tuples(p)
+            .expect("a resident node's partition has tuples");
         (tn.0 == f && l > tn.1) || (tx.0 == f && l > tx.1)
     }
 }

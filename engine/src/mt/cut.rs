@@ -17,6 +17,7 @@ use super::cache::Mark;
 use super::file::{NodeData, NodeHead};
 use super::store::{MtStore, MtStoreError};
 use crate::camera::{Frustum, View};
+use crate::format::{PackedVertex, RepMesh};
 
 /// Passes of top-down and bottom-up steps in one frame, at most.
 const MAX_PASSES: u32 = 1024;
@@ -29,6 +30,8 @@ pub struct MtCriterion {
     pub view: View,
     pub frustum: Frustum,
     pub tolerance_px: f32,
+    /// The view's pixels per unit of error at distance 1.
+    ppr: f32,
 }
 
 impl MtCriterion {
@@ -37,6 +40,7 @@ impl MtCriterion {
             view,
             frustum: view.frustum(0.0),
             tolerance_px,
+            ppr: view.pixels_per_radian(),
         }
     }
 
@@ -50,7 +54,7 @@ impl MtCriterion {
             return false;
         }
         let d = (c.distance(self.view.pose.position) - h.radius).max(self.view.near);
-        self.view.projected(h.error, d) > self.tolerance_px
+        h.error * self.ppr / d > self.tolerance_px
     }
 }
 
@@ -261,38 +265,29 @@ impl MtCut {
         }
     }
 
-    /// The cut's mesh: positions, normals and a triangle list (each arc's
-    /// vertices on their own).
-    pub fn mesh(&self, store: &MtStore) -> CutMesh {
+    /// The cut's mesh as a rep payload's mesh: the arcs' vertices as
+    /// stored (quantised over the MT's box, so nothing is re-quantised),
+    /// coloured `color`, and their triangles.
+    pub fn rep_mesh(&self, store: &MtStore, color: [u8; 4]) -> RepMesh {
         let h = store.file.header;
-        let mut m = CutMesh::default();
+        let mut m = RepMesh {
+            quant_min: h.quant_min,
+            quant_scale: h.quant_scale,
+            vertices: Vec::new(),
+            indices: Vec::with_capacity(3 * self.tris as usize),
+        };
         for &(f, pos) in self.arcs.keys() {
             let nd: &Arc<NodeData> = store.peek(f).expect("cut fathers are pinned in core");
             let (ah, verts, idx) = nd.arc(pos as usize);
-            let base = m.positions.len() as u32;
-            for v in verts.chunks_exact(16) {
-                let pv: crate::format::PackedVertex = bytemuck::pod_read_unaligned(v);
-                let p = std::array::from_fn(|a| {
-                    h.quant_min[a] + f32::from(pv.position[a]) * h.quant_scale[a]
-                });
-                m.positions.push(p);
-                m.normals.push(
-                    pv.normal.map(|c| f32::from(c) / 127.0)[..3]
-                        .try_into()
-                        .expect("3"),
-                );
-            }
+            let base = m.vertices.len() as u32;
+            m.vertices.extend(verts.chunks_exact(16).map(|v| {
+                let mut pv: PackedVertex = bytemuck::pod_read_unaligned(v);
+                pv.color = color;
+                pv
+            }));
             debug_assert_eq!(idx.len(), 3 * ah.tri_count as usize);
             m.indices.extend(idx.iter().map(|&i| base + i));
         }
         m
     }
-}
-
-/// A cut as a triangle list.
-#[derive(Clone, Debug, Default)]
-pub struct CutMesh {
-    pub positions: Vec<[f32; 3]>,
-    pub normals: Vec<[f32; 3]>,
-    pub indices: Vec<u32>,
 }

@@ -4,7 +4,6 @@
 //! node or partition failing its checksum is never read again (its region
 //! keeps the level it has).
 
-use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 use super::cache::{CacheMode, Mark, NodeCache};
@@ -16,6 +15,11 @@ use super::file::{MtFile, MtFileError, NodeData};
 pub fn node_bytes(len: u32) -> u64 {
     2 * u64::from(len) + 64
 }
+
+/// Bytes per node of the store's, the cache's and the cut's own tables
+/// (resident pointer, pin count, checksum flag; cache slot; refined flag),
+/// counted with the file's in-core part.
+pub const TABLE_BYTES_PER_NODE: u64 = 48;
 
 /// Counters since the store started.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -48,11 +52,14 @@ pub struct MtStore {
     pub file: Arc<MtFile>,
     pub cache: NodeCache,
     pub budget: u64,
-    resident: BTreeMap<u32, Arc<NodeData>>,
+    /// By node id.
+    resident: Vec<Option<Arc<NodeData>>>,
+    count: usize,
     bytes: u64,
     peak: u64,
-    pins: BTreeMap<u32, u32>,
-    bad: BTreeSet<u32>,
+    /// Pin count by node id.
+    pins: Vec<u32>,
+    bad: Vec<bool>,
     /// The smallest read refused for want of room since the last unpin or
     /// removal: a read at least as large is refused at once.
     refused_at: Option<u64>,
@@ -63,28 +70,32 @@ impl MtStore {
     /// A store of `budget` bytes (the in-core part included); fails when
     /// that cannot hold the in-core part and the root.
     pub fn new(file: Arc<MtFile>, mode: CacheMode, budget: u64) -> Result<Self, MtStoreError> {
-        let need = file.core_bytes() + node_bytes(file.dir[0].len);
+        let need = file.core_bytes()
+            + TABLE_BYTES_PER_NODE * file.dir.len() as u64
+            + node_bytes(file.dir[0].len);
         if budget < need {
             return Err(MtStoreError::Budget { budget, need });
         }
-        let peak = file.core_bytes();
+        let n = file.dir.len();
+        let peak = file.core_bytes() + TABLE_BYTES_PER_NODE * n as u64;
         Ok(Self {
             file,
             cache: NodeCache::new(mode),
             budget,
-            resident: BTreeMap::new(),
+            resident: vec![None; n],
+            count: 0,
             bytes: 0,
             peak,
-            pins: BTreeMap::new(),
-            bad: BTreeSet::new(),
+            pins: vec![0; n],
+            bad: vec![false; n],
             refused_at: None,
             stats: MtStats::default(),
         })
     }
 
-    /// In-core part plus resident nodes.
+    /// In-core part, tables and resident nodes.
     pub fn resident_bytes(&self) -> u64 {
-        self.file.core_bytes() + self.bytes
+        self.file.core_bytes() + TABLE_BYTES_PER_NODE * self.resident.len() as u64 + self.bytes
     }
 
     /// The largest [`MtStore::resident_bytes`] since the last call.
@@ -94,45 +105,45 @@ impl MtStore {
     }
 
     pub fn resident_nodes(&self) -> usize {
-        self.resident.len()
+        self.count
     }
 
     /// A resident node, without reading.
     pub fn peek(&self, id: u32) -> Option<&Arc<NodeData>> {
-        self.resident.get(&id)
+        self.resident.get(id as usize)?.as_ref()
     }
 
     /// Node `id`, read (with its partition, unless NP,NC) on a miss;
     /// `None` when it is corrupt, the read failed or the budget has no
     /// room for it.
     pub fn get(&mut self, id: u32) -> Result<Arc<NodeData>, Miss> {
-        if let Some(n) = self.resident.get(&id) {
+        if let Some(n) = self.peek(id) {
             return Ok(n.clone());
         }
-        if self.bad.contains(&id) {
+        if self.bad[id as usize] {
             return Err(Miss::Corrupt);
         }
         self.read(id)?;
-        self.resident.get(&id).cloned().ok_or(Miss::Corrupt)
+        self.peek(id).cloned().ok_or(Miss::Corrupt)
     }
 
     /// The father or child of an arc entered the cut.
     pub fn pin(&mut self, id: u32) {
-        *self.pins.entry(id).or_default() += 1;
+        self.pins[id as usize] += 1;
     }
 
     pub fn unpin(&mut self, id: u32) {
-        if let Some(c) = self.pins.get_mut(&id) {
+        let c = &mut self.pins[id as usize];
+        if *c > 0 {
             *c -= 1;
             if *c == 0 {
-                self.pins.remove(&id);
                 self.refused_at = None;
             }
         }
     }
 
     pub fn is_pinned(&self, id: u32) -> bool {
-        self.pins.contains_key(&id)
+        self.pins[id as usize] > 0
     }
 
     fn read(&mut self, id: u32) -> Result<(), Miss> {
@@ -142,7 +153,7 @@ impl MtStore {
         let (first, end) = (pd.first, pd.first + pd.count);
         let need = |a: u32, b: u32, s: &Self| -> u64 {
             (a..b)
-                .filter(|n| !s.resident.contains_key(n) && !s.bad.contains(n))
+                .filter(|&n| s.peek(n).is_none() && !s.bad[n as usize])
                 .map(|n| node_bytes(f.dir[n as usize].len))
                 .sum()
         };
@@ -174,14 +185,15 @@ impl MtStore {
         for (n, r) in (a..b).zip(got) {
             self.stats.nodes_read += 1;
             match r {
-                Ok(nd) if !self.resident.contains_key(&n) && !self.bad.contains(&n) => {
+                Ok(nd) if self.peek(n).is_none() && !self.bad[n as usize] => {
                     self.bytes += node_bytes(f.dir[n as usize].len);
                     self.cache.loaded(n, p, nd.head.layer);
-                    self.resident.insert(n, Arc::new(nd));
+                    self.resident[n as usize] = Some(Arc::new(nd));
+                    self.count += 1;
                 }
                 Ok(_) => {}
                 Err(e) => {
-                    if self.bad.insert(n) {
+                    if !std::mem::replace(&mut self.bad[n as usize], true) {
                         self.stats.corrupt += 1;
                         tracing::warn!("MT node {n}: {e}; its region keeps the level it has");
                     }
@@ -203,21 +215,20 @@ impl MtStore {
         if self.refused_at.is_some_and(|r| need >= r) {
             return false;
         }
-        let free: u64 = self
+        let order: Vec<u32> = self
             .cache
             .oldest()
-            .filter(|n| !self.pins.contains_key(n) && !keep.contains(n))
-            .map(|n| node_bytes(self.file.dir[n as usize].len))
+            .into_iter()
+            .filter(|&n| self.pins[n as usize] == 0 && !keep.contains(&n))
+            .collect();
+        let free: u64 = order
+            .iter()
+            .map(|&n| node_bytes(self.file.dir[n as usize].len))
             .sum();
         if self.resident_bytes() - free + need > self.budget {
             self.refused_at = Some(self.refused_at.map_or(need, |r| r.min(need)));
             return false;
         }
-        let order: Vec<u32> = self
-            .cache
-            .oldest()
-            .filter(|n| !self.pins.contains_key(n) && !keep.contains(n))
-            .collect();
         for n in order {
             if self.resident_bytes() + need <= self.budget {
                 break;
@@ -228,8 +239,9 @@ impl MtStore {
     }
 
     fn drop_node(&mut self, n: u32) {
-        if self.resident.remove(&n).is_some() {
+        if self.resident[n as usize].take().is_some() {
             self.bytes -= node_bytes(self.file.dir[n as usize].len);
+            self.count -= 1;
             self.cache.remove(n);
         }
     }
@@ -241,8 +253,9 @@ impl MtStore {
         let file = self.file.clone();
         let part_of = |n: u32| file.part_of[n as usize];
         for n in self.cache.end_frame(f, arcs, &part_of) {
-            if self.resident.remove(&n).is_some() {
+            if self.resident[n as usize].take().is_some() {
                 self.bytes -= node_bytes(self.file.dir[n as usize].len);
+                self.count -= 1;
             }
         }
     }
@@ -261,7 +274,7 @@ impl std::fmt::Debug for MtStore {
         f.debug_struct("MtStore")
             .field("mode", &self.cache.mode)
             .field("budget", &self.budget)
-            .field("resident", &self.resident.len())
+            .field("resident", &self.count)
             .field("bytes", &self.bytes)
             .field("stats", &self.stats)
             .finish_non_exhaustive()

@@ -16,7 +16,7 @@ use std::sync::Arc;
 
 use super::trees::{TreeError, TreeFrame};
 use crate::camera::View;
-use crate::format::{RepMesh, RepRecord};
+use crate::format::RepRecord;
 use crate::io::{ByteSource, WindowSource};
 use crate::mt::cache::CacheMode;
 use crate::mt::cut::{MtCriterion, MtCut};
@@ -24,7 +24,7 @@ use crate::mt::file::{MtFile, MtHeader};
 use crate::mt::store::{MtStore, node_bytes};
 
 /// Bytes P_I reserves for an MT rep's store besides its payload: the open
-/// file's tables plus `max(need, min(wanted, all nodes))`, `need` being
+/// file's and the store's tables plus `max(need, min(wanted, all nodes))`, `need` being
 /// four of the largest node records (the root and a few to refine with).
 pub(super) fn plan(
     source: &dyn ByteSource,
@@ -43,7 +43,9 @@ pub(super) fn plan(
         return Err(TreeError::Roots);
     }
     let n = u64::from(h.node_count);
-    let core = H as u64 + 20 * n + 8 * u64::from(h.partition_count);
+    let core = H as u64
+        + (20 + crate::mt::store::TABLE_BYTES_PER_NODE) * n
+        + 8 * u64::from(h.partition_count);
     let all = 2 * h.data_len + 64 * n;
     let need = 4 * node_bytes(h.max_record);
     Ok(core + need.max(wanted.min(all)))
@@ -129,16 +131,12 @@ impl MtLive {
     }
 
     fn cut_mesh(&self, rec: &RepRecord, color: [u8; 4]) -> (RepRecord, Arc<[u8]>) {
-        let m = self.cut.mesh(&self.store);
-        let colors = vec![color; m.positions.len()];
-        let tri_count = (m.indices.len() / 3) as u32;
-        let vertex_count = m.positions.len() as u32;
-        let mesh = RepMesh::quantize(&m.positions, &m.normals, &colors, m.indices);
+        let mesh = self.cut.rep_mesh(&self.store, color);
         let bytes = mesh.encode(rec.node, u32::from(rec.index));
         let out = RepRecord {
             len: bytes.len() as u32,
-            tri_count,
-            vertex_count,
+            tri_count: (mesh.indices.len() / 3) as u32,
+            vertex_count: mesh.vertices.len() as u32,
             aux: 0,
             ..*rec
         };
