@@ -63,6 +63,11 @@ pub struct MtStore {
     /// The smallest read refused for want of room since the last unpin or
     /// removal: a read at least as large is refused at once.
     refused_at: Option<u64>,
+    /// The eviction order ([`NodeCache::oldest`]) as of the first eviction
+    /// of the frame (last frames on the cut change only at its end), and
+    /// the nodes read since, which come first (never yet on a cut).
+    evict_order: Option<Vec<u32>>,
+    fresh: Vec<u32>,
     pub stats: MtStats,
 }
 
@@ -89,6 +94,8 @@ impl MtStore {
             pins: vec![0; n],
             bad: vec![false; n],
             refused_at: None,
+            evict_order: None,
+            fresh: Vec::new(),
             stats: MtStats::default(),
         })
     }
@@ -190,6 +197,9 @@ impl MtStore {
                     self.cache.loaded(n, p, nd.head.layer);
                     self.resident[n as usize] = Some(Arc::new(nd));
                     self.count += 1;
+                    if self.evict_order.is_some() {
+                        self.fresh.push(n);
+                    }
                 }
                 Ok(_) => {}
                 Err(e) => {
@@ -215,17 +225,23 @@ impl MtStore {
         if self.refused_at.is_some_and(|r| need >= r) {
             return false;
         }
+        let sorted = self.evict_order.get_or_insert_with(|| self.cache.oldest());
         let order: Vec<u32> = self
-            .cache
-            .oldest()
-            .into_iter()
-            .filter(|&n| self.pins[n as usize] == 0 && !keep.contains(&n))
+            .fresh
+            .iter()
+            .chain(sorted.iter())
+            .copied()
+            .filter(|&n| {
+                self.resident[n as usize].is_some()
+                    && self.pins[n as usize] == 0
+                    && !keep.contains(&n)
+            })
             .collect();
         let free: u64 = order
             .iter()
             .map(|&n| node_bytes(self.file.dir[n as usize].len))
             .sum();
-        if self.resident_bytes() - free + need > self.budget {
+        if self.resident_bytes().saturating_sub(free) + need > self.budget {
             self.refused_at = Some(self.refused_at.map_or(need, |r| r.min(need)));
             return false;
         }
@@ -235,7 +251,9 @@ impl MtStore {
             }
             self.drop_node(n);
         }
-        true
+        // The order may name a node twice (read again after an eviction):
+        // the bytes decide.
+        self.resident_bytes() + need <= self.budget
     }
 
     fn drop_node(&mut self, n: u32) {
@@ -250,6 +268,8 @@ impl MtStore {
     /// it does not keep.
     pub fn end_frame(&mut self, f: i64, arcs: &[(u32, Option<u32>, Mark)]) {
         self.refused_at = None;
+        self.evict_order = None;
+        self.fresh.clear();
         let file = self.file.clone();
         let part_of = |n: u32| file.part_of[n as usize];
         for n in self.cache.end_frame(f, arcs, &part_of) {

@@ -6,7 +6,7 @@
 //! partition at run time. The rep's error is that of the MT's coarsest cut,
 //! kept under the finest static LOD's when written.
 
-use engine::format::{RepKind, RepMesh};
+use engine::format::RepKind;
 
 use super::{MtParams, build_mt};
 use crate::lod::{Level, LodParams, lod_chain};
@@ -64,21 +64,16 @@ pub fn mt_levels(
     chain.truncate(keep);
     // The coarsest cut's error: the largest error below the root.
     let coarsest = mt.nodes[1..].iter().map(|n| n.error).fold(0.0f32, f32::max);
-    let b = mesh.bounds();
-    let (bbox_min, bbox_max) = b.to_arrays();
-    let quantisation = RepMesh::quantize(
-        &[bbox_min, bbox_max],
-        &[[0.0; 3]; 2],
-        &[[0; 4]; 2],
-        Vec::new(),
-    )
-    .quantization_error();
+    let (bbox_min, bbox_max) = mesh.bounds().to_arrays();
+    // The stored vertices are quantised over the object's box and drawn
+    // as stored.
+    let quantisation = crate::vdt::rep::box_quantisation(bbox_min, bbox_max);
     let core = bytemuck::pod_read_unaligned::<engine::mt::file::MtHeader>(&bytes[..136]).data_offset
         as usize;
     let rep = TreeRep {
         kind: RepKind::Mt,
         core,
-        error: coarsest + 2.0 * quantisation,
+        error: coarsest + quantisation,
         tri_count: mt.input_triangles as u32,
         vertex_count: mt.positions.len() as u32,
         bbox_min,

@@ -5,7 +5,7 @@
 //! tree rep for the scene file ([`tree_levels`], [`write_rep`]).
 
 mod build;
-mod rep;
+pub(crate) mod rep;
 #[cfg(test)]
 mod tests;
 

@@ -64,17 +64,8 @@ pub fn tree_levels(mesh: &Mesh, lod: &LodParams, keep: usize) -> (Vec<Level>, Op
         .iter()
         .map(|&r| tree.nodes[r as usize].switch)
         .fold(0.0f32, f32::max);
-    let b = mesh.bounds();
-    let (bbox_min, bbox_max) = b.to_arrays();
-    // The codec's own error for a mesh spanning the tree's box (the drawn
-    // cut spans at most that box).
-    let quantisation = RepMesh::quantize(
-        &[bbox_min, bbox_max],
-        &[[0.0; 3]; 2],
-        &[[0; 4]; 2],
-        Vec::new(),
-    )
-    .quantization_error();
+    let (bbox_min, bbox_max) = mesh.bounds().to_arrays();
+    let quantisation = box_quantisation(bbox_min, bbox_max);
     let bytes = encode(&tree, levels_for_block(BLOCK as usize));
     let core = engine::vdt::file::VdtHeader::rep_len(&bytes)
         .expect("an encoded tree has a header and its roots");
@@ -89,6 +80,12 @@ pub fn tree_levels(mesh: &Mesh, lod: &LodParams, keep: usize) -> (Vec<Level>, Op
         bbox_max,
     };
     (chain, Some(rep))
+}
+
+/// The codec's own error for a mesh spanning the box `min..max` (a paged
+/// rep's drawn cut spans at most its object's box).
+pub(crate) fn box_quantisation(min: [f32; 3], max: [f32; 3]) -> f32 {
+    RepMesh::quantize(&[min, max], &[[0.0; 3]; 2], &[[0; 4]; 2], Vec::new()).quantization_error()
 }
 
 /// Writes the tree (or MT) after the node's static reps `below` (coarsest first) and

@@ -5,17 +5,19 @@
 //! renderer draws the cut close to the full-resolution mesh.
 
 use std::io::Cursor;
-use std::sync::{Arc, OnceLock};
+use std::sync::OnceLock;
 
-use engine::camera::{PathKind, Pose, generate_path};
+use engine::camera::Pose;
 use engine::metrics::FrameMetrics;
 use engine::mt::cache::CacheMode;
 use engine::render::NoneRenderer;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
-use engine::{ByteSource, MemSource, RepKind, SceneFile, Skeleton};
+use engine::{MemSource, RepKind, SceneFile, Skeleton};
 use engine_gpu::{GpuRenderer, RendererConfig};
 use glam::Vec3;
 use hlod_builder::build::{BuildParams, build_scene};
+
+use super::vdt_scene::{open, path};
 
 fn with_mt() -> BuildParams {
     BuildParams {
@@ -33,12 +35,6 @@ fn scene() -> &'static Vec<u8> {
         build_scene(&imp, &mut out, &with_mt(), false).unwrap();
         out.into_inner()
     })
-}
-
-fn open(bytes: &[u8]) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
-    let scene = SceneFile::from_source(MemSource::new(bytes.to_vec())).unwrap();
-    let skel = Arc::new(scene.skeleton().clone());
-    (skel, Arc::new(MemSource::new(bytes.to_vec())))
 }
 
 fn mt_rep(s: &Skeleton) -> u32 {
@@ -65,16 +61,6 @@ fn params(mode: Mode, budget: u64, cache: CacheMode, pool: u64) -> RuntimeParams
         mt_cache: cache,
         ..RuntimeParams::default()
     }
-}
-
-fn path(s: &Skeleton, frames: usize) -> Vec<Pose> {
-    let root = &s.nodes[0];
-    generate_path(
-        PathKind::ApproachOrbit,
-        root.bbox_min.into(),
-        root.bbox_max.into(),
-        frames,
-    )
 }
 
 /// Plays `poses` then holds the last one for `hold` frames, checking the

@@ -37,7 +37,8 @@ fn scenes() -> &'static (Vec<u8>, Vec<u8>) {
     })
 }
 
-fn open(bytes: &[u8]) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
+/// A scene in memory: its skeleton and a source over its bytes.
+pub(crate) fn open(bytes: &[u8]) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
     let scene = SceneFile::from_source(MemSource::new(bytes.to_vec())).unwrap();
     let skel = Arc::new(scene.skeleton().clone());
     (skel, Arc::new(MemSource::new(bytes.to_vec())))
@@ -69,7 +70,8 @@ fn params(mode: Mode, budget: u64) -> RuntimeParams {
     }
 }
 
-fn path(s: &Skeleton, frames: usize) -> Vec<Pose> {
+/// An approach-and-orbit path around the whole scene.
+pub(crate) fn path(s: &Skeleton, frames: usize) -> Vec<Pose> {
     let root = &s.nodes[0];
     generate_path(
         PathKind::ApproachOrbit,
