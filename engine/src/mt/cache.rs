@@ -141,14 +141,6 @@ impl NodeCache {
         self.slot(n).is_some()
     }
 
-    pub fn len(&self) -> usize {
-        self.resident.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.resident.is_empty()
-    }
-
     /// The tuples of partition `p` (while it is partly in core).
     pub fn tuples(&self, p: u32) -> Option<(Tuple, Tuple)> {
         let q = self.parts.get(p as usize)?.as_ref()?;

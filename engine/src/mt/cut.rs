@@ -85,6 +85,9 @@ pub struct MtCut {
     /// Cut arcs per father.
     per_father: BTreeMap<u32, u32>,
     tris: u64,
+    /// (father, child) of the arcs added since the last pass began: the
+    /// only places the next pass can change.
+    added: Vec<(u32, u32)>,
 }
 
 impl MtCut {
@@ -99,6 +102,7 @@ impl MtCut {
             arcs: BTreeMap::new(),
             per_father: BTreeMap::new(),
             tris: 0,
+            added: Vec::new(),
         };
         c.refined[0] = true;
         c.add_out(&root, store, Mark::TopDown);
@@ -120,6 +124,7 @@ impl MtCut {
 
     fn add(&mut self, key: (u32, u32), child: u32, tris: u32, mark: Mark, store: &mut MtStore) {
         self.arcs.insert(key, CutArc { child, tris, mark });
+        self.added.push((key.0, child));
         *self.per_father.entry(key.0).or_default() += 1;
         self.tris += u64::from(tris);
         store.pin(key.0);
@@ -152,20 +157,28 @@ impl MtCut {
     }
 
     /// Adapts the cut to `c`: top-down and bottom-up passes until neither
-    /// changes it.
+    /// changes it. The first pass looks at the whole cut; each later one
+    /// only at the ends of the arcs the one before added (a child can be
+    /// refined only once an arc to it enters the cut, a father coarsened
+    /// only once its last outgoing arc does).
     pub fn adapt(&mut self, c: &MtCriterion, store: &mut MtStore) -> CutStats {
         let mut st = CutStats::default();
         let mut missed = BTreeSet::new();
+        let mut below: BTreeSet<u32> = self
+            .arcs
+            .values()
+            .filter(|a| a.child != DRAIN && !self.refined[a.child as usize])
+            .map(|a| a.child)
+            .collect();
+        let mut fathers: BTreeSet<u32> = self.per_father.keys().copied().collect();
         while st.passes < MAX_PASSES {
             st.passes += 1;
+            self.added.clear();
             let mut changed = false;
-            let below: BTreeSet<u32> = self
-                .arcs
-                .values()
-                .filter(|a| a.child != DRAIN && !self.refined[a.child as usize])
-                .map(|a| a.child)
-                .collect();
-            for g in below {
+            for g in std::mem::take(&mut below) {
+                if self.refined[g as usize] {
+                    continue;
+                }
                 if missed.contains(&g) {
                     continue;
                 }
@@ -187,13 +200,10 @@ impl MtCut {
                 st.refined += 1;
                 changed = true;
             }
-            let fathers: Vec<u32> = self
-                .per_father
-                .keys()
-                .copied()
-                .filter(|&g| g != 0)
-                .collect();
-            for g in fathers {
+            for g in std::mem::take(&mut fathers) {
+                if g == 0 {
+                    continue;
+                }
                 let Some(nd) = store.peek(g).cloned() else {
                     continue;
                 };
@@ -242,7 +252,14 @@ impl MtCut {
             if !changed {
                 break;
             }
+            for &(h, g) in &self.added {
+                fathers.insert(h);
+                if g != DRAIN && !self.refined[g as usize] {
+                    below.insert(g);
+                }
+            }
         }
+        self.added.clear();
         // A node missed is not asked for again this frame.
         st.misses = missed.len() as u32;
         st

@@ -149,10 +149,6 @@ impl MtStore {
         }
     }
 
-    pub fn is_pinned(&self, id: u32) -> bool {
-        self.pins[id as usize] > 0
-    }
-
     fn read(&mut self, id: u32) -> Result<(), Miss> {
         let f = self.file.clone();
         let p = f.part_of[id as usize];
