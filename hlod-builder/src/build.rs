@@ -15,20 +15,25 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use engine::format::objects::{ObjectTable, Run};
-use engine::format::{NONE, NodeRecord, RepKind, RepMesh, RepRecord, SceneMeta, SceneWriter};
+use engine::format::objects::ObjectTable;
+use engine::format::{NONE, NodeRecord, RepRecord, SceneMeta, SceneWriter};
 use engine::{FormatError, Skeleton};
 
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
+mod assemble;
+mod cells;
 mod leaf;
+pub mod memory;
+pub mod shard;
+mod source;
 
-use crate::cluster::{ClusterItem, cluster};
+use crate::cluster::cluster;
 use crate::import::{self, ImportError, Imported};
-use crate::lod::{LodParams, hlod, lod_chain, strictly_above};
-use crate::mesh::{Aabb, Mesh};
-use leaf::{Item, LeafGeometry, item_object, leaf_levels, object_infos, transformed_bounds};
+use crate::lod::{LodParams, lod_chain};
+use leaf::{Item, object_infos};
+pub use source::SceneSource;
 
 /// Parameters of a build.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -146,6 +151,10 @@ pub enum BuildError {
     },
     #[error(transparent)]
     Output(#[from] engine::outfile::OutputError),
+    #[error("{0}")]
+    Memory(String),
+    #[error("{0}")]
+    Shard(String),
 }
 
 /// Table-1 figures of a finished build.
@@ -175,17 +184,35 @@ pub struct BuildStats {
     pub origin: [f64; 3],
     /// Bytes of the object section (names, extras, merged leaves' runs).
     pub object_bytes: u64,
-}
-
-/// A finished node's coarsest rep, kept for its parent's HLOD.
-struct Coarse {
-    mesh: Mesh,
-    error: f32,
+    /// Cells the scene graph was built in, and the plan that sized them.
+    pub cells: u64,
+    pub memory_plan: Option<memory::MemoryPlan>,
+    /// The most heap in use at once, where the heap is counted.
+    pub peak_heap: Option<u64>,
 }
 
 /// Where a build is: a stage name, nodes done and nodes in all (0 while
 /// the total is not known yet).
 pub type Report<'a> = &'a (dyn Fn(&str, u64, u64) + Sync);
+
+/// How a build runs; none of it changes the output.
+#[derive(Clone, Copy)]
+pub struct RunOptions<'a> {
+    /// A progress bar on the terminal.
+    pub progress: bool,
+    pub report: Report<'a>,
+    /// The most heap the build may use ([`memory::default_limit`] if `None`).
+    pub memory_limit: Option<u64>,
+}
+
+impl std::fmt::Debug for RunOptions<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RunOptions")
+            .field("progress", &self.progress)
+            .field("memory_limit", &self.memory_limit)
+            .finish_non_exhaustive()
+    }
+}
 
 /// Builds `input` into the scene file `output` (written atomically).
 pub fn build_file(
@@ -205,15 +232,31 @@ pub fn build_file_reporting(
     progress: bool,
     report: Report<'_>,
 ) -> Result<BuildStats, BuildError> {
+    let opts = RunOptions {
+        progress,
+        report,
+        memory_limit: None,
+    };
+    build_file_with(input, output, params, &opts)
+}
+
+/// [`build_file`] under `opts`: the input is opened lazily (its geometry
+/// read mesh by mesh as cells need it), so the heap stays within the limit.
+pub fn build_file_with(
+    input: &Path,
+    output: &Path,
+    params: &BuildParams,
+    opts: &RunOptions<'_>,
+) -> Result<BuildStats, BuildError> {
     params.check()?;
-    report("importing", 0, 0);
+    (opts.report)("importing", 0, 0);
     let t0 = Instant::now();
     // The output policy first: a device, a directory or the input itself
     // is refused before any work.
     let out = engine::outfile::OutputFile::create(output, &[input])?;
-    let imported = import::load(input)?;
+    let opened = import::open(input)?;
     // Every import warning is shown now, whatever becomes of the build.
-    for w in &imported.warnings {
+    for w in &opened.scene.warnings {
         tracing::warn!("{}: {w}", input.display());
     }
     let io_err = |source| BuildError::Io {
@@ -222,10 +265,13 @@ pub fn build_file_reporting(
     };
     let dir = engine::outfile::parent_dir(out.target()).to_path_buf();
     let sink = BufWriter::with_capacity(1 << 20, out.file().try_clone().map_err(io_err)?);
-    let mut stats = build_scene_staged(&imported, sink, params, (progress, report), Some(&dir))
-        .map_err(|source| BuildError::Write {
-            path: output.to_path_buf(),
-            source,
+    let mut stats =
+        build_scene_staged(&opened, sink, params, opts, Some(&dir)).map_err(|e| match e {
+            Staged::Format(source) => BuildError::Write {
+                path: output.to_path_buf(),
+                source,
+            },
+            Staged::Memory(what) => BuildError::Memory(what),
         })?;
     out.commit()?;
     stats.file_bytes = std::fs::metadata(output).map_err(io_err)?.len();
@@ -240,31 +286,57 @@ pub fn build_scene<W: Write + std::io::Seek>(
     params: &BuildParams,
     progress: bool,
 ) -> Result<BuildStats, FormatError> {
-    build_scene_staged(imported, sink, params, (progress, &|_, _, _| {}), None)
+    let opts = RunOptions {
+        progress,
+        report: &|_, _, _| {},
+        memory_limit: None,
+    };
+    build_scene_staged(imported, sink, params, &opts, None).map_err(|e| match e {
+        Staged::Format(f) => f,
+        Staged::Memory(m) => FormatError::Io(std::io::Error::other(m)),
+    })
+}
+
+/// Why a staged build stopped.
+enum Staged {
+    Format(FormatError),
+    Memory(String),
+}
+
+impl From<FormatError> for Staged {
+    fn from(e: FormatError) -> Self {
+        Staged::Format(e)
+    }
+}
+
+impl From<std::io::Error> for Staged {
+    fn from(e: std::io::Error) -> Self {
+        Staged::Format(e.into())
+    }
 }
 
 /// [`build_scene`]; for the spatial layout the reps are first written in the
 /// order they are made to a temporary file in `staging` (the system's
 /// temporary directory if `None`), then copied into `sink` in layout order.
-fn build_scene_staged<W: Write + std::io::Seek>(
-    imported: &Imported,
+fn build_scene_staged<S: SceneSource, W: Write + std::io::Seek>(
+    src: &S,
     sink: W,
     params: &BuildParams,
-    progress: (bool, Report<'_>),
+    opts: &RunOptions<'_>,
     staging: Option<&Path>,
-) -> Result<BuildStats, FormatError> {
+) -> Result<BuildStats, Staged> {
     if !params.spatial_layout {
-        return build_in_make_order(imported, sink, params, progress);
+        return build_in_make_order(src, sink, params, opts);
     }
     let file = match staging {
         Some(dir) => tempfile::tempfile_in(dir)?,
         None => tempfile::tempfile()?,
     };
     let stats = build_in_make_order(
-        imported,
+        src,
         BufWriter::with_capacity(1 << 20, file.try_clone()?),
         params,
-        progress,
+        opts,
     )?;
     let staged = engine::format::SceneFile::from_source(engine::io::FileSource::from_file(file)?)?;
     // The copy in layout order needs as much room again as the staged file.
@@ -277,92 +349,60 @@ fn build_scene_staged<W: Write + std::io::Seek>(
             ))
         })?;
     }
-    progress.1("writing the spatial layout", stats.nodes, stats.nodes);
+    (opts.report)("writing the spatial layout", stats.nodes, stats.nodes);
     crate::layout::relayout(&staged, sink, crate::layout::Payloads::Keep)?;
     Ok(stats)
 }
 
-fn build_in_make_order<W: Write + std::io::Seek>(
-    imported: &Imported,
-    sink: W,
-    params: &BuildParams,
-    (progress, report): (bool, Report<'_>),
-) -> Result<BuildStats, FormatError> {
-    let mut stats = BuildStats {
-        objects: imported.instances.len() as u64,
-        input_triangles: imported.instanced_source_triangles(),
-        usable_triangles: imported.instanced_triangles(),
-        warnings: imported.warnings.clone(),
-        origin: imported.origin,
-        ..Default::default()
-    };
-    let mut leaf_runs: Vec<(u32, Vec<Run>)> = Vec::new();
-    // 1. Items.
-    let mut items = Vec::new();
-    let mut cluster_items = Vec::new();
-    for (obj, inst) in imported.instances.iter().enumerate() {
-        let mesh = imported.meshes[inst.mesh]
-            .as_ref()
-            .expect("instances refer to usable meshes");
-        let mt = params.mt_tris > 0 && mesh.tri_count() >= params.mt_tris;
-        if mt || (params.vdt_tris > 0 && mesh.tri_count() >= params.vdt_tris) {
-            let world = mesh.transformed(&inst.transform);
-            cluster_items.push(ClusterItem {
-                bounds: world.bounds(),
-                tris: world.tri_count(),
-            });
-            items.push(Item::Tree {
-                mesh: world,
-                object: obj as u32,
-                mt,
-            });
-        } else if mesh.tri_count() > params.chunk_tris {
-            stats.chunked_objects += 1;
-            for chunk in mesh
-                .transformed(&inst.transform)
-                .split_spatial(params.chunk_tris)
-            {
-                cluster_items.push(ClusterItem {
-                    bounds: chunk.bounds(),
-                    tris: chunk.tri_count(),
-                });
-                items.push(Item::Chunk {
-                    mesh: chunk,
-                    object: obj as u32,
-                });
-            }
-        } else {
-            cluster_items.push(ClusterItem {
-                bounds: transformed_bounds(mesh.bounds(), &inst.transform),
-                tris: mesh.tri_count(),
-            });
-            items.push(Item::Instance {
-                mesh: inst.mesh,
-                transform: inst.transform,
-                object: obj as u32,
-            });
-        }
+fn progress_bar(show: bool, len: u64) -> ProgressBar {
+    if !show {
+        return ProgressBar::hidden();
     }
-    // 2. Topology.
-    report("clustering", 0, 0);
-    let tree = cluster(&cluster_items, params.branching, params.leaf_tris);
-    let total = tree.len() as u64;
-    let mut done = 0u64;
-    let bar = if progress {
-        ProgressBar::new(tree.len() as u64).with_style(
-            ProgressStyle::with_template(
-                "{spinner} {msg:12} [{bar:40}] {pos}/{len} nodes  {elapsed}",
-            )
+    ProgressBar::new(len).with_style(
+        ProgressStyle::with_template("{spinner} {msg:12} [{bar:40}] {pos}/{len} nodes  {elapsed}")
             .expect("static template")
             .progress_chars("=> "),
-        )
-    } else {
-        ProgressBar::hidden()
+    )
+}
+
+/// What every kind of build computes first, from sizes and boxes: the
+/// items, the graph, the shared meshes' chains and the memory plan.
+struct Prepared {
+    items: Vec<Item>,
+    tree: Vec<crate::cluster::TreeNode>,
+    item_tris: Vec<usize>,
+    chains: assemble::Chains,
+    mplan: memory::MemoryPlan,
+}
+
+fn prepare<S: SceneSource>(
+    src: &S,
+    params: &BuildParams,
+    opts: &RunOptions<'_>,
+    stats: &mut BuildStats,
+) -> Result<Prepared, Staged> {
+    let scene = src.scene();
+    *stats = BuildStats {
+        objects: scene.instances.len() as u64,
+        input_triangles: scene.instanced_source_triangles(),
+        usable_triangles: scene.instanced_triangles(),
+        warnings: scene.warnings.clone(),
+        origin: scene.origin,
+        ..Default::default()
     };
+    // 1. Items, from sizes and boxes (split and tree objects loaded once).
+    let made = source::make_items(src, params)?;
+    stats.chunked_objects = made.chunked_objects;
+    // 2. Topology.
+    (opts.report)("clustering", 0, 0);
+    let tree = cluster(&made.cluster, params.branching, params.leaf_tris);
+    let item_tris: Vec<usize> = made.cluster.iter().map(|c| c.tris).collect();
+    drop(made.cluster);
+    let items = made.items;
+    let total = tree.len() as u64;
     // 3. Chains of meshes placed by several single-instance leaves, computed
     // once in local space; other leaves compute theirs in their batch.
-    bar.set_message("mesh LODs");
-    report("mesh LODs", 0, total);
+    (opts.report)("mesh LODs", 0, total);
     let mut placed: Vec<usize> = tree
         .iter()
         .filter(|n| n.items.len() == 1)
@@ -377,26 +417,59 @@ fn build_in_make_order<W: Write + std::io::Seek>(
         .filter(|run| run.len() > 1)
         .map(|run| run[0])
         .collect();
-    let chains: Vec<(usize, Vec<crate::lod::Level>)> = shared
+    let chains: assemble::Chains = shared
         .par_iter()
-        .map(|&m| {
-            (
-                m,
-                lod_chain(imported.meshes[m].as_ref().expect("usable"), &params.lod),
-            )
-        })
+        .map(|&m| Ok((m, lod_chain(&*src.mesh(m)?, &params.lod))))
+        .collect::<Result<_, FormatError>>()?;
+    // 4. The memory plan.
+    let mut leaf_tris: Vec<u64> = tree
+        .iter()
+        .filter(|n| !n.items.is_empty())
+        .map(|n| n.items.iter().map(|&k| item_tris[k as usize] as u64).sum())
         .collect();
-    let chain_of = |m: usize| {
-        chains
-            .binary_search_by_key(&m, |(k, _)| *k)
-            .ok()
-            .map(|k| &chains[k].1)
+    leaf_tris.sort_unstable_by(|a, b| b.cmp(a));
+    stats.leaves = leaf_tris.len() as u64;
+    let chain_bytes: u64 = chains
+        .iter()
+        .flat_map(|(_, c)| c)
+        .map(|l| l.mesh.heap_bytes())
+        .sum();
+    let demand = memory::Demand {
+        fixed_now: crate::heap::in_use()
+            .unwrap_or(stats.objects * memory::ESTIMATED_BYTES_PER_OBJECT),
+        nodes: total,
+        objects: stats.objects,
+        leaf_tris_desc: leaf_tris,
+        interior_batch: memory::interior_batch(
+            (params.branching * params.hlod_tris) as u64,
+            stats.usable_triangles,
+            rayon::current_num_threads(),
+        ),
+        chains: chain_bytes,
     };
+    let limit = opts.memory_limit.unwrap_or_else(memory::default_limit);
+    let mplan =
+        memory::plan(limit, &demand, rayon::current_num_threads()).map_err(Staged::Memory)?;
+    stats.memory_plan = Some(mplan);
+    Ok(Prepared {
+        items,
+        tree,
+        item_tris,
+        chains,
+        mplan,
+    })
+}
 
-    let mut writer = SceneWriter::new(sink)?;
+/// An assembly over `prep` writing to `sink`, every node still to make.
+fn assembly<'a, W: Write + std::io::Seek>(
+    prep: &'a Prepared,
+    sink: W,
+    params: &'a BuildParams,
+    opts: &RunOptions<'a>,
+    stats: &'a mut BuildStats,
+) -> Result<assemble::Assembly<'a, W>, FormatError> {
+    let tree = &prep.tree;
     let mut nodes = vec![NodeRecord::default(); tree.len()];
-    let mut node_reps: Vec<Vec<RepRecord>> = vec![Vec::new(); tree.len()];
-    let mut coarse: Vec<Option<Coarse>> = (0..tree.len()).map(|_| None).collect();
     for (i, t) in tree.iter().enumerate() {
         let n = &mut nodes[i];
         n.parent = t.parent.unwrap_or(NONE);
@@ -405,144 +478,70 @@ fn build_in_make_order<W: Write + std::io::Seek>(
         n.child_count = t.children.len() as u32;
         n.object = NONE;
     }
-    // 4. Leaves, in batches, written in breadth-first order.
-    bar.set_message("leaf LODs");
-    report("leaf LODs", 0, total);
-    let leaves: Vec<usize> = (0..tree.len())
-        .filter(|&i| !tree[i].items.is_empty())
-        .collect();
-    stats.leaves = leaves.len() as u64;
-    for batch in leaves.chunks(64) {
-        let made: Vec<LeafGeometry> = batch
-            .par_iter()
-            .map(|&i| leaf_levels(&tree[i].items, &items, imported, params, &chain_of))
-            .collect();
-        for (&i, (levels, vdt, runs)) in batch.iter().zip(made) {
-            if let Some(r) = runs {
-                leaf_runs.push((i as u32, r));
-            }
-            let objects: Vec<u32> = tree[i]
-                .items
-                .iter()
-                .map(|&k| item_object(&items[k as usize]))
-                .collect();
-            let n = &mut nodes[i];
-            n.object_count = objects.len() as u32;
-            if objects.len() == 1 {
-                n.object = objects[0];
-                if matches!(items[tree[i].items[0] as usize], Item::Chunk { .. }) {
-                    n.flags |= NodeRecord::FLAG_CHUNK;
-                }
-            } else {
-                n.flags |= NodeRecord::FLAG_MERGED;
-            }
-            let (mut recs, c) = write_chain(
-                &mut writer,
-                i as u32,
-                levels,
-                (RepKind::Lod, params.compress_reps),
-                0.0,
-            )?;
-            if let Some(t) = vdt {
-                if t.kind == RepKind::Mt {
-                    stats.mt_objects += 1;
-                } else {
-                    stats.vdt_objects += 1;
-                }
-                recs.push(crate::vdt::write_rep(&mut writer, i as u32, &recs, &t)?);
-            }
-            finish_node(&mut nodes[i], &recs, &c.mesh, &[]);
-            node_reps[i] = recs;
-            coarse[i] = Some(c);
-            bar.inc(1);
-            done += 1;
-        }
-        report("leaf LODs", done, total);
+    Ok(assemble::Assembly {
+        writer: SceneWriter::new(sink)?,
+        tree,
+        items: &prep.items,
+        params,
+        chains: &prep.chains,
+        nodes,
+        node_reps: vec![Vec::new(); tree.len()],
+        coarse: (0..tree.len()).map(|_| None).collect(),
+        leaf_runs: Vec::new(),
+        stats,
+        bar: progress_bar(opts.progress, tree.len() as u64),
+        report: opts.report,
+        done: 0,
+        batch: prep.mplan.batch,
+    })
+}
+
+/// Makes the nodes of `plan`: cell by cell, its leaves and then its
+/// interior nodes deepest first; then the nodes above the cells.
+fn make_nodes<S: SceneSource, W: Write + std::io::Seek>(
+    asm: &mut assemble::Assembly<'_, W>,
+    src: &S,
+    plan: &cells::Plan,
+) -> Result<(), FormatError> {
+    for cell in &plan.cells {
+        asm.bar.set_message("leaf LODs");
+        asm.leaves(src, &cell.leaves)?;
+        asm.bar.set_message("HLODs");
+        asm.interior(&cell.interior)?;
     }
-    // 5. Interior nodes, deepest level first.
-    bar.set_message("HLODs");
-    let max_depth = tree.iter().map(|t| t.depth).max().unwrap_or(0);
-    for depth in (0..=max_depth).rev() {
-        let level: Vec<usize> = (0..tree.len())
-            .filter(|&i| tree[i].depth == depth && !tree[i].children.is_empty())
-            .collect();
-        for batch in level.chunks(32) {
-            let inputs: Vec<(Mesh, f32)> = batch
-                .iter()
-                .map(|&i| {
-                    let kids: Vec<&Coarse> = tree[i]
-                        .children
-                        .iter()
-                        .map(|&c| coarse[c as usize].as_ref().expect("children done first"))
-                        .collect();
-                    let merged = Mesh::merge(kids.iter().map(|k| &k.mesh));
-                    let floor = kids.iter().map(|k| k.error).fold(0.0, f32::max);
-                    (merged, floor)
-                })
-                .collect();
-            let made: Vec<(Mesh, f32, f32)> = inputs
-                .into_par_iter()
-                .map(|(merged, floor)| {
-                    let budget = ((merged.tri_count() as f32 * params.hlod_ratio) as usize).clamp(
-                        params.lod.min_tris.min(merged.tri_count()),
-                        params.hlod_tris,
-                    );
-                    let (m, e) = hlod(&merged, budget);
-                    (m, floor, e)
-                })
-                .collect();
-            for (&i, (mesh, floor, e)) in batch.iter().zip(made) {
-                let level = crate::lod::Level {
-                    mesh,
-                    error: floor + e,
-                };
-                let (recs, c) = write_chain(
-                    &mut writer,
-                    i as u32,
-                    vec![level],
-                    (RepKind::Hlod, params.compress_reps),
-                    floor,
-                )?;
-                let child_boxes: Vec<([f32; 3], [f32; 3])> = tree[i]
-                    .children
-                    .iter()
-                    .map(|&ch| (nodes[ch as usize].bbox_min, nodes[ch as usize].bbox_max))
-                    .collect();
-                nodes[i].object_count = tree[i]
-                    .children
-                    .iter()
-                    .map(|&ch| nodes[ch as usize].object_count)
-                    .sum();
-                finish_node(&mut nodes[i], &recs, &c.mesh, &child_boxes);
-                node_reps[i] = recs;
-                coarse[i] = Some(c);
-                for &ch in &tree[i].children {
-                    coarse[ch as usize] = None;
-                }
-                bar.inc(1);
-                done += 1;
-            }
-            report("HLODs", done, total);
-        }
-    }
-    bar.finish_and_clear();
-    // 6. Skeleton.
+    asm.interior(&plan.upper)?;
+    asm.bar.finish_and_clear();
+    Ok(())
+}
+
+/// The skeleton of every node's records (first reps numbered in node order).
+fn skeleton_of(mut nodes: Vec<NodeRecord>, node_reps: Vec<Vec<RepRecord>>) -> Skeleton {
     let mut reps = Vec::new();
     for (i, recs) in node_reps.into_iter().enumerate() {
         nodes[i].first_rep = reps.len() as u32;
         nodes[i].rep_count = recs.len() as u32;
         reps.extend(recs);
     }
-    let skeleton = Skeleton { nodes, reps };
+    Skeleton { nodes, reps }
+}
+
+/// The object section and the header's figures.
+fn scene_tail(
+    scene: &Imported,
+    stats: &BuildStats,
+    leaf_runs: &[(u32, Vec<engine::format::objects::Run>)],
+) -> (SceneMeta, Vec<u8>) {
     let meta = SceneMeta {
         object_count: stats.objects as u32,
         input_triangles: stats.input_triangles,
-        origin: imported.origin,
+        origin: scene.origin,
     };
-    let objects = ObjectTable::encode(&object_infos(imported), &leaf_runs);
-    stats.object_bytes = objects.len() as u64;
-    let mut sink = writer.finish_with_objects(&skeleton, &meta, &objects)?;
-    sink.flush()?;
+    (meta, ObjectTable::encode(&object_infos(scene), leaf_runs))
+}
+
+/// The figures of a finished skeleton.
+fn skeleton_stats(stats: &mut BuildStats, skeleton: &Skeleton, object_bytes: usize) {
+    stats.object_bytes = object_bytes as u64;
     stats.nodes = skeleton.nodes.len() as u64;
     stats.height = skeleton.height();
     stats.reps = skeleton.reps.len() as u64;
@@ -550,84 +549,32 @@ fn build_in_make_order<W: Write + std::io::Seek>(
     stats.skeleton_bytes = (std::mem::size_of_val(skeleton.nodes.as_slice())
         + std::mem::size_of_val(skeleton.reps.as_slice())) as u64;
     stats.data_bytes = skeleton.reps.iter().map(RepRecord::extent).sum();
+    stats.peak_heap = crate::heap::peak();
+}
+
+fn build_in_make_order<S: SceneSource, W: Write + std::io::Seek>(
+    src: &S,
+    sink: W,
+    params: &BuildParams,
+    opts: &RunOptions<'_>,
+) -> Result<BuildStats, Staged> {
+    let mut stats = BuildStats::default();
+    let prep = prepare(src, params, opts, &mut stats)?;
+    let plan = cells::plan(&prep.tree, &prep.item_tris, prep.mplan.cell_tris, &[0]);
+    stats.cells = plan.cells.len() as u64;
+    let mut asm = assembly(&prep, sink, params, opts, &mut stats)?;
+    make_nodes(&mut asm, src, &plan)?;
+    let assemble::Assembly {
+        writer,
+        nodes,
+        node_reps,
+        leaf_runs,
+        ..
+    } = asm;
+    let skeleton = skeleton_of(nodes, node_reps);
+    let (meta, objects) = scene_tail(src.scene(), &stats, &leaf_runs);
+    let mut sink = writer.finish_with_objects(&skeleton, &meta, &objects)?;
+    sink.flush()?;
+    skeleton_stats(&mut stats, &skeleton, objects.len());
     Ok(stats)
-}
-
-/// Writes a node's levels (coarsest first), compressed or not; `floor` is an
-/// error every rep must exceed (the children's for an HLOD). Returns the
-/// records and the coarsest level.
-fn write_chain<W: Write + std::io::Seek>(
-    writer: &mut SceneWriter<W>,
-    node: u32,
-    levels: Vec<crate::lod::Level>,
-    (kind, compress): (RepKind, bool),
-    floor: f32,
-) -> Result<(Vec<RepRecord>, Coarse), FormatError> {
-    let n = levels.len();
-    let mut recs = vec![RepRecord::default(); n];
-    let mut below = if kind == RepKind::Hlod {
-        Some(floor)
-    } else {
-        None
-    };
-    // Finest first, so each coarser error is made strictly larger.
-    for (i, level) in levels.iter().enumerate().rev() {
-        let m = &level.mesh;
-        let packed = RepMesh::quantize(&m.positions, &m.normals, &m.colors, m.indices.clone());
-        let raw = level.error + packed.quantization_error();
-        let error = match below {
-            Some(b) => strictly_above(b, raw),
-            None => raw,
-        };
-        below = Some(error);
-        let payload = if compress {
-            packed.encode_compressed(node, i as u32)
-        } else {
-            packed.encode(node, i as u32)
-        };
-        let loc = writer.write_rep(&payload)?;
-        let (bbox_min, bbox_max) = m.bounds().to_arrays();
-        recs[i] = RepRecord {
-            bbox_min,
-            bbox_max,
-            node,
-            index: i as u16,
-            kind: kind as u16,
-            error,
-            checksum: loc.checksum,
-            offset: loc.offset,
-            len: loc.len,
-            tri_count: m.tri_count() as u32,
-            vertex_count: m.vertex_count() as u32,
-            aux: 0,
-        };
-    }
-    let first = levels.into_iter().next().expect("at least one level");
-    Ok((
-        recs.clone(),
-        Coarse {
-            mesh: first.mesh,
-            error: recs[0].error,
-        },
-    ))
-}
-
-/// Box and colour of a node from its reps and children.
-fn finish_node(
-    n: &mut NodeRecord,
-    reps: &[RepRecord],
-    color_mesh: &Mesh,
-    child_boxes: &[([f32; 3], [f32; 3])],
-) {
-    let mut b = Aabb::EMPTY;
-    for r in reps {
-        b.add(r.bbox_min.into());
-        b.add(r.bbox_max.into());
-    }
-    for (mn, mx) in child_boxes {
-        b.add((*mn).into());
-        b.add((*mx).into());
-    }
-    (n.bbox_min, n.bbox_max) = b.to_arrays();
-    n.color = u32::from_le_bytes(color_mesh.dominant_color());
 }

@@ -64,7 +64,10 @@ impl Triangles {
     /// there is none), or any value at most `enough` as soon as one
     /// triangle is that near (the caller wants the largest distance of
     /// many points: one within the largest so far cannot change it).
-    fn nearest2(&self, p: Vec3A, enough: f32, stack: &mut Vec<(usize, f32)>) -> f32 {
+    ///
+    /// Consecutive samples lie close together, so the leaf that ended the
+    /// last search is tried first: most searches end there.
+    fn nearest2(&self, p: Vec3A, enough: f32, q: &mut Query) -> f32 {
         let mut best = f32::INFINITY;
         let Some(bvh) = self.bvh.as_ref().filter(|b| !b.nodes.is_empty()) else {
             for t in &self.tris {
@@ -75,19 +78,30 @@ impl Triangles {
             }
             return best;
         };
-        stack.clear();
-        stack.push((0usize, 0.0f32));
-        while let Some((i, d)) = stack.pop() {
+        let leaf = |i: usize, best: &mut f32| {
+            let node = &bvh.nodes[i];
+            let f = node.first_index as usize;
+            for &t in &bvh.primitive_indices[f..f + node.prim_count as usize] {
+                *best = best.min(point_triangle2(p, &self.tris[t as usize]));
+            }
+        };
+        if let Some(i) = q.last_leaf {
+            leaf(i, &mut best);
+            if best <= enough {
+                return best;
+            }
+        }
+        q.stack.clear();
+        q.stack.push((0usize, 0.0f32));
+        while let Some((i, d)) = q.stack.pop() {
             if d >= best {
                 continue;
             }
             let node = &bvh.nodes[i];
             if node.is_leaf() {
-                let f = node.first_index as usize;
-                for &t in &bvh.primitive_indices[f..f + node.prim_count as usize] {
-                    best = best.min(point_triangle2(p, &self.tris[t as usize]));
-                }
+                leaf(i, &mut best);
                 if best <= enough {
+                    q.last_leaf = Some(i);
                     return best;
                 }
                 continue;
@@ -96,15 +110,23 @@ impl Triangles {
             let (da, db) = (box2(p, &bvh.nodes[a].aabb), box2(p, &bvh.nodes[b].aabb));
             // The nearer child is searched first (popped last).
             if da < db {
-                stack.push((b, db));
-                stack.push((a, da));
+                q.stack.push((b, db));
+                q.stack.push((a, da));
             } else {
-                stack.push((a, da));
-                stack.push((b, db));
+                q.stack.push((a, da));
+                q.stack.push((b, db));
             }
         }
         best
     }
+}
+
+/// A search's scratch state, kept from one sample to the next.
+#[derive(Default)]
+struct Query {
+    stack: Vec<(usize, f32)>,
+    /// The leaf that ended the last search early.
+    last_leaf: Option<usize>,
 }
 
 fn box2(p: Vec3A, b: &BvhAabb) -> f32 {
@@ -179,23 +201,42 @@ fn samples(m: &Mesh) -> Vec<Vec3A> {
 /// The largest distance from a sample of either mesh to the other's
 /// triangles (0 when both are empty; infinite when only one is).
 pub fn deviation(input: &Mesh, simplified: &Mesh) -> f32 {
-    let (a, b) = (Triangles::new(input), Triangles::new(simplified));
-    one_way2(input, &b).max(one_way2(simplified, &a)).sqrt()
+    deviation_above(input, simplified, 0.0)
+}
+
+/// `floor.max(deviation(input, simplified))`, exactly, but faster: only a
+/// sample farther than `floor` needs its exact nearest triangle, so the
+/// searches start from `floor` instead of 0 and most end at the first leaf.
+/// (The result is `floor` whenever no sample is farther: the square root of
+/// a rounded square is the number itself, so nothing is lost by squaring.)
+pub fn deviation_above(input: &Mesh, simplified: &Mesh, floor: f32) -> f32 {
+    // Below the normal range squaring loses digits: start from 0 there.
+    let start = if floor >= 1e-18 { floor * floor } else { 0.0 };
+    let b = Triangles::new(simplified);
+    let m = one_way2(input, &b, start);
+    let a = Triangles::new(input);
+    let m = one_way2(simplified, &a, m);
+    if m > start {
+        floor.max(m.sqrt())
+    } else {
+        floor.max(0.0)
+    }
 }
 
 /// The largest distance from a sample of `from` to the triangles of `to`
 /// (how far what `from` shows lies from what `to` draws).
 pub fn distance_from(from: &Mesh, to: &Mesh) -> f32 {
-    one_way2(from, &Triangles::new(to)).sqrt()
+    one_way2(from, &Triangles::new(to), 0.0).sqrt()
 }
 
-/// The largest of the samples' squared distances: exactly, since a
-/// sample whose search stops early is within the largest so far.
-fn one_way2(from: &Mesh, to: &Triangles) -> f32 {
-    let mut stack = Vec::new();
+/// The largest of `start` and the samples' squared distances: exactly
+/// whenever it is above `start` (a sample whose search stops early is
+/// within the largest so far); at most `start` otherwise.
+fn one_way2(from: &Mesh, to: &Triangles, start: f32) -> f32 {
+    let mut q = Query::default();
     samples(from)
         .into_iter()
-        .fold(0.0f32, |m, p| m.max(to.nearest2(p, m, &mut stack)))
+        .fold(start, |m, p| m.max(to.nearest2(p, m, &mut q)))
 }
 
 #[cfg(test)]
@@ -222,6 +263,32 @@ mod tests {
         assert!(deviation(&both, &both) < 1e-3);
         assert_eq!(deviation(&Mesh::default(), &Mesh::default()), 0.0);
         assert!(deviation(&both, &Mesh::default()).is_infinite());
+    }
+
+    #[test]
+    fn a_floor_gives_the_same_number_as_the_max_with_it() {
+        let mut both = bar(Vec3::ZERO, 4.0);
+        both.append(&bar(Vec3::new(0.0, 3.0, 0.0), 4.0));
+        both.append(&bar(Vec3::new(0.0, 0.5, 0.7), 2.0));
+        let one = bar(Vec3::ZERO, 4.0);
+        let d = deviation(&both, &one);
+        for floor in [
+            -1.0,
+            0.0,
+            1e-20,
+            1e-3,
+            0.1,
+            0.7,
+            2.5,
+            d,
+            d * 0.999,
+            d * 1.001,
+            4.0,
+            1e30,
+        ] {
+            assert_eq!(deviation_above(&both, &one, floor), floor.max(d), "{floor}");
+        }
+        assert!(deviation_above(&both, &Mesh::default(), 1.0).is_infinite());
     }
 
     #[test]

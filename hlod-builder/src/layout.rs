@@ -113,6 +113,37 @@ pub fn relayout<S: ByteSource, W: Write + Seek>(
     writer.finish_with_objects(&skeleton, &src.meta(), &src.read_objects_bytes()?)
 }
 
+/// Writes a scene whose reps lie in several files (a merged sharded build):
+/// `skeleton`'s reps of node `i` are read from `sources[source_of_node[i]]`
+/// at their offsets, checked, and written in [`file_order`] with the same
+/// bytes, as [`relayout`] does with [`Payloads::Keep`].
+pub fn relayout_parts<S: ByteSource, W: Write + Seek>(
+    skeleton: &Skeleton,
+    source_of_node: &[usize],
+    sources: &[S],
+    meta: &engine::format::SceneMeta,
+    objects: &[u8],
+    sink: W,
+) -> Result<W, FormatError> {
+    let mut skeleton = skeleton.clone();
+    let mut writer = SceneWriter::new(sink)?;
+    let mut buf = Vec::new();
+    for r in file_order(&skeleton) {
+        let rec = &mut skeleton.reps[r as usize];
+        buf.resize(rec.extent() as usize, 0);
+        sources[source_of_node[rec.node as usize]].read_at(rec.offset, &mut buf)?;
+        rec.offset = if rec.is_paged() {
+            // A tree's checksum covers its in-core part.
+            engine::format::check_rep_crc(r, rec, &buf[..rec.len as usize])?;
+            writer.write_tree_rep(&buf)?.offset
+        } else {
+            engine::format::check_rep_crc(r, rec, &buf)?;
+            writer.write_rep(&buf)?.offset
+        };
+    }
+    writer.finish_with_objects(&skeleton, meta, objects)
+}
+
 /// [`relayout`] from file `input` to file `output`, written atomically.
 pub fn relayout_file(
     input: &std::path::Path,

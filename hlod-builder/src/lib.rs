@@ -13,12 +13,14 @@
 //!   GLB writer they share.
 //! - [`layout`]: the order of the reps on disk (selection band, then Morton
 //!   order), so that the reps one frame misses are read without seeks.
+//! - [`heap`]: the counted heap a build is sized and checked by.
 //! - [`summary`]: the Table-1-style summary printed by `build` and `info`.
 
 pub mod build;
 pub mod cache;
 pub mod cluster;
 pub mod deviation;
+pub mod heap;
 pub mod import;
 pub mod layout;
 pub mod lod;

@@ -105,7 +105,7 @@ pub fn simplify(
     // meshopt's estimate misses what collapsed away whole (a sloppy
     // cluster's thin member, a brace folded into its leg): the measured
     // deviation does not.
-    err = err.max(crate::deviation::deviation(mesh, &m));
+    err = crate::deviation::deviation_above(mesh, &m, err);
     if !err.is_finite() {
         return None;
     }

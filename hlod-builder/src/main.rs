@@ -1,14 +1,13 @@
 //! `hlod-build`: build, inspect and generate out-of-core scenes.
 
+mod build_cmd;
 mod mt_cmd;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
-use clap::{Args, Parser, Subcommand};
-use hlod_builder::build::{BuildParams, build_file};
-use hlod_builder::lod::LodParams;
+use clap::{Parser, Subcommand};
 use hlod_builder::scenegen::{lattice, plant, tile};
 use hlod_builder::summary::{TABLE_HEADER, human_bytes, stats_of, table_row};
 
@@ -26,7 +25,7 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Cmd {
     /// Build a glTF/GLB scene into a scene file.
-    Build(BuildArgs),
+    Build(build_cmd::BuildArgs),
     /// Print a scene file's summary and validate it.
     Info {
         file: PathBuf,
@@ -44,6 +43,15 @@ enum Cmd {
         /// format version 3), `raw`, or `keep` (copied as they are).
         #[arg(long, default_value = "compressed")]
         reps: String,
+    },
+    /// Merge the shard files of a sharded build (`build --shard I/N`, one
+    /// file per shard, all N) into the scene file, with the same build options.
+    Merge {
+        #[command(flatten)]
+        build: build_cmd::BuildArgs,
+        /// The shard files, in any order.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
     },
     /// Generate a glTF scene.
     #[command(subcommand)]
@@ -81,67 +89,6 @@ enum Cmd {
         #[arg(short, long)]
         output: Option<PathBuf>,
     },
-}
-
-#[derive(Args, Debug)]
-struct BuildArgs {
-    input: PathBuf,
-    #[arg(short, long)]
-    output: PathBuf,
-    /// Children per interior node (at most).
-    #[arg(long, default_value_t = 8)]
-    branching: usize,
-    /// Merge clusters of small objects into one leaf up to this many triangles (0: never).
-    #[arg(long, default_value_t = 1024)]
-    leaf_tris: usize,
-    /// Split objects larger than this many triangles into spatial chunks.
-    #[arg(long, default_value_t = 65536)]
-    chunk_tris: usize,
-    /// Triangle budget of each HLOD.
-    #[arg(long, default_value_t = 8192)]
-    hlod_tris: usize,
-    /// HLOD target as a fraction of the merged children's coarsest reps.
-    #[arg(long, default_value_t = 0.5)]
-    hlod_ratio: f32,
-    /// Triangle ratio between successive LODs.
-    #[arg(long, default_value_t = 0.25)]
-    lod_ratio: f32,
-    /// Most LODs per object, the original included.
-    #[arg(long, default_value_t = 6)]
-    max_lods: usize,
-    /// Objects of at least this many triangles get a view-dependence tree as
-    /// their finest rep (paged by meta-nodes, refined per frame) instead of
-    /// being split into chunks (0: none).
-    #[arg(long, default_value_t = 0)]
-    vdt_tris: usize,
-    /// How many of the coarsest static LODs such an object keeps below its
-    /// tree or MT.
-    #[arg(long, default_value_t = 2)]
-    vdt_keep: usize,
-    /// Objects of at least this many triangles get a Multi-Triangulation
-    /// (Holst & Schumann: patches paged by partitions, cut per frame) as
-    /// their finest rep (0: none; takes precedence over --vdt-tris).
-    #[arg(long, default_value_t = 0)]
-    mt_tris: usize,
-    /// MT nodes per partition, at most (the paper: 50-100 in scenes of many
-    /// objects).
-    #[arg(long, default_value_t = 64)]
-    mt_theta: u32,
-    /// Largest MT patch cluster in triangles.
-    #[arg(long, default_value_t = 16)]
-    mt_cluster_tris: usize,
-    /// Order of the reps on disk: `spatial` (selection band, then Morton
-    /// order: one frame's misses lie close together) or `build` (the order
-    /// they are made: each leaf's chain, then the HLODs level by level).
-    #[arg(long, default_value = "spatial")]
-    layout: String,
-    /// Store mesh rep payloads raw instead of through meshopt's vertex and
-    /// index codecs (larger files; for comparison).
-    #[arg(long)]
-    raw_reps: bool,
-    /// No progress bar.
-    #[arg(short, long)]
-    quiet: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -198,13 +145,20 @@ enum GenCmd {
     },
 }
 
+/// The heap is counted, so that a build can be sized to `--memory-limit`
+/// and report its peak.
+#[global_allocator]
+static HEAP: hlod_builder::heap::Counting = hlod_builder::heap::Counting;
+
 fn main() -> ExitCode {
+    hlod_builder::heap::mark_installed();
     engine_cli::main_with(|| run(Cli::parse()))
 }
 
 fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
-        Cmd::Build(a) => build(a),
+        Cmd::Build(a) => build_cmd::build(a),
+        Cmd::Merge { build, shards } => build_cmd::merge(build, &shards),
         Cmd::Info {
             file,
             no_verify_data,
@@ -346,54 +300,6 @@ fn parse_grid(s: &str) -> Result<(usize, usize)> {
         bail!("--grid {s:?}: N and M must be positive and N*M at most 1,000,000");
     }
     Ok((n, m))
-}
-
-fn build(a: BuildArgs) -> Result<()> {
-    let params = BuildParams {
-        lod: LodParams {
-            ratio: a.lod_ratio,
-            max_levels: a.max_lods,
-            ..LodParams::default()
-        },
-        branching: a.branching,
-        leaf_tris: a.leaf_tris,
-        chunk_tris: a.chunk_tris,
-        hlod_tris: a.hlod_tris,
-        hlod_ratio: a.hlod_ratio,
-        vdt_tris: a.vdt_tris,
-        vdt_keep: a.vdt_keep,
-        mt_tris: a.mt_tris,
-        mt: hlod_builder::mt::MtRepParams {
-            mt: hlod_builder::mt::MtParams {
-                cluster_tris: a.mt_cluster_tris,
-                ..Default::default()
-            },
-            theta: a.mt_theta,
-        },
-        spatial_layout: match a.layout.as_str() {
-            "spatial" => true,
-            "build" => false,
-            l => anyhow::bail!("--layout {l:?}: use spatial or build"),
-        },
-        compress_reps: !a.raw_reps,
-    };
-    let show = !a.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr());
-    // Import warnings are printed by the build as soon as they are known.
-    let stats = build_file(&a.input, &a.output, &params, show)?;
-    let name = a
-        .input
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
-    println!(
-        "wrote {} ({} objects split into chunks, {} with a view-dependence tree, {} with a Multi-Triangulation, {} degenerate triangles dropped)",
-        a.output.display(),
-        stats.chunked_objects,
-        stats.vdt_objects,
-        stats.mt_objects,
-        stats.input_triangles - stats.usable_triangles
-    );
-    Ok(())
 }
 
 fn info(file: &std::path::Path, verify: bool) -> Result<()> {

@@ -86,6 +86,14 @@ impl Mesh {
         self.positions.len()
     }
 
+    /// Heap bytes its arrays hold.
+    pub fn heap_bytes(&self) -> u64 {
+        (self.positions.capacity() * 12
+            + self.normals.capacity() * 12
+            + self.colors.capacity() * 4
+            + self.indices.capacity() * 4) as u64
+    }
+
     /// Bounds of the referenced vertices' positions.
     pub fn bounds(&self) -> Aabb {
         let mut b = Aabb::EMPTY;

@@ -34,6 +34,9 @@ pub fn stats_of<S: ByteSource>(scene: &SceneFile<S>) -> BuildStats {
         warnings: Vec::new(),
         origin: h.origin,
         object_bytes: h.objects_len,
+        cells: 0,
+        memory_plan: None,
+        peak_heap: None,
     }
 }
 

@@ -65,6 +65,13 @@ impl<W: Write + Seek> SceneWriter<W> {
         Ok(())
     }
 
+    /// Ends the data section without a skeleton (a builder's partial output,
+    /// which adds its own records): the sink, flushed, and the data's end.
+    pub fn into_inner(mut self) -> Result<(W, u64), FormatError> {
+        self.out.flush()?;
+        Ok((self.out, self.pos))
+    }
+
     /// Validates `skeleton` against the written data, writes it and the header,
     /// and returns the sink (flushed). No object section.
     pub fn finish(self, skeleton: &Skeleton, meta: &SceneMeta) -> Result<W, FormatError> {

@@ -7,6 +7,7 @@ use engine::format::objects::Run;
 use glam::{Mat3, Mat4};
 
 use super::BuildParams;
+use super::source::CellGeometry;
 use crate::import::Imported;
 use crate::lod::{LodParams, lod_chain, lod_chain_from, optimize};
 use crate::mesh::{Aabb, Mesh};
@@ -18,17 +19,11 @@ pub(super) enum Item {
         transform: Mat4,
         object: u32,
     },
-    Chunk {
-        mesh: Mesh,
-        object: u32,
-    },
-    /// A large object in world space, whose finest rep is a view-dependence
+    /// Chunk `chunk` of the object's world-space mesh split spatially.
+    Chunk { object: u32, chunk: u32 },
+    /// A large object (in world space), whose finest rep is a view-dependence
     /// tree (or a Multi-Triangulation, with `mt`).
-    Tree {
-        mesh: Mesh,
-        object: u32,
-        mt: bool,
-    },
+    Tree { object: u32, mt: bool },
 }
 
 pub(super) fn item_object(item: &Item) -> u32 {
@@ -49,9 +44,8 @@ pub(super) fn object_infos(imported: &Imported) -> Vec<String> {
         .enumerate()
         .map(|(k, inst)| {
             let mut v = imported.object_info(k);
-            if let (Some(m), serde_json::Value::Object(map)) = (&imported.meshes[inst.mesh], &mut v)
-            {
-                let b = transformed_bounds(m.bounds(), &inst.transform);
+            if let (Some(m), serde_json::Value::Object(map)) = (&imported.meta[inst.mesh], &mut v) {
+                let b = transformed_bounds(m.bounds, &inst.transform);
                 let w = |p: glam::Vec3| (p.as_dvec3() + o).to_array().to_vec();
                 map.insert("box_min".into(), w(b.min).into());
                 map.insert("box_max".into(), w(b.max).into());
@@ -74,7 +68,7 @@ pub(super) type LeafGeometry = (
 pub(super) fn leaf_levels<'a>(
     leaf_items: &[u32],
     items: &[Item],
-    imported: &Imported,
+    geo: &CellGeometry<'_>,
     params: &BuildParams,
     chain_of: &(dyn Fn(usize) -> Option<&'a Vec<crate::lod::Level>> + Sync),
 ) -> LeafGeometry {
@@ -88,10 +82,7 @@ pub(super) fn leaf_levels<'a>(
                 let chain = match chain_of(*mesh) {
                     Some(c) => c,
                     None => {
-                        local = lod_chain(
-                            imported.meshes[*mesh].as_ref().expect("usable"),
-                            &params.lod,
-                        );
+                        local = lod_chain(geo.mesh(*mesh), &params.lod);
                         &local
                     }
                 };
@@ -104,14 +95,16 @@ pub(super) fn leaf_levels<'a>(
                     .collect();
                 return (levels, None, None);
             }
-            Item::Chunk { mesh, .. } => {
+            item @ Item::Chunk { .. } => {
                 let lod = LodParams {
                     lock_border: true,
                     ..params.lod
                 };
-                return (lod_chain(mesh, &lod), None, None);
+                return (lod_chain(&geo.world(item), &lod), None, None);
             }
-            Item::Tree { mesh, mt, .. } => {
+            item @ Item::Tree { mt, .. } => {
+                let world = geo.world(item);
+                let mesh = &*world;
                 let (levels, tree) = if *mt {
                     crate::mt::mt_levels(mesh, &params.lod, params.vdt_keep, &params.mt)
                 } else {
@@ -123,15 +116,7 @@ pub(super) fn leaf_levels<'a>(
     }
     let parts: Vec<Mesh> = leaf_items
         .iter()
-        .map(|&k| match &items[k as usize] {
-            Item::Instance {
-                mesh, transform, ..
-            } => imported.meshes[*mesh]
-                .as_ref()
-                .expect("usable")
-                .transformed(transform),
-            Item::Chunk { mesh, .. } | Item::Tree { mesh, .. } => mesh.clone(),
-        })
+        .map(|&k| geo.world(&items[k as usize]).into_owned())
         .collect();
     // Each object optimised on its own, so that its triangles stay one run
     // of the finest rep (what picking resolves a merged leaf's hit by).

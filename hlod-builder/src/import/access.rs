@@ -4,8 +4,6 @@
 //! `EXT_meshopt_compression`. Errors name the glTF part (`accessors[3]`,
 //! `bufferViews[2]`).
 
-use std::cell::OnceCell;
-
 use super::doc::{Accessor, Doc};
 use super::meshopt_view;
 
@@ -50,50 +48,175 @@ pub fn dimensions(kind: &str) -> Option<usize> {
     }
 }
 
-/// The loaded buffers and the buffer views decoded so far.
+/// The bytes of one buffer: in memory, or a span of a file read when used
+/// (a GLB's BIN chunk or an external `.bin`, opened lazily).
+#[derive(Debug)]
+pub enum BufData {
+    Mem(Vec<u8>),
+    File {
+        file: std::fs::File,
+        offset: u64,
+        len: u64,
+    },
+}
+
+impl BufData {
+    pub fn len(&self) -> u64 {
+        match self {
+            BufData::Mem(v) => v.len() as u64,
+            BufData::File { len, .. } => *len,
+        }
+    }
+
+    /// Bytes `offset..offset + len`, which the caller has checked lie within.
+    fn read(&self, offset: u64, len: u64) -> Result<Bytes<'_>, String> {
+        match self {
+            BufData::Mem(v) => Ok(Bytes::Slice(&v[offset as usize..(offset + len) as usize])),
+            BufData::File {
+                file, offset: at, ..
+            } => {
+                use std::os::unix::fs::FileExt;
+                let mut out = Vec::new();
+                out.try_reserve_exact(len as usize)
+                    .map_err(|_| format!("cannot allocate {len} bytes"))?;
+                out.resize(len as usize, 0);
+                file.read_exact_at(&mut out, at + offset)
+                    .map_err(|e| format!("cannot read {len} bytes at {}: {e}", at + offset))?;
+                Ok(Bytes::Owned(out))
+            }
+        }
+    }
+}
+
+/// Bytes of a buffer view: borrowed from memory, read from a file, or a
+/// range of a decoded (meshopt) view shared through the cache.
+#[derive(Debug)]
+pub enum Bytes<'a> {
+    Slice(&'a [u8]),
+    Owned(Vec<u8>),
+    Shared(std::sync::Arc<Vec<u8>>, usize, usize),
+}
+
+impl std::ops::Deref for Bytes<'_> {
+    type Target = [u8];
+    fn deref(&self) -> &[u8] {
+        match self {
+            Bytes::Slice(s) => s,
+            Bytes::Owned(v) => v,
+            Bytes::Shared(v, a, b) => &v[*a..*b],
+        }
+    }
+}
+
+type ViewCache = lru::LruCache<usize, std::sync::Arc<Vec<u8>>>;
+
+/// Decoded meshopt buffer views, most recently used kept up to a byte limit
+/// (a lazily opened scene decodes a view again after it was dropped).
+#[derive(Debug)]
+pub struct Decoded {
+    /// The views by index, and their bytes in all.
+    views: std::sync::Mutex<(ViewCache, u64)>,
+    limit: u64,
+}
+
+impl Decoded {
+    /// Keeps up to `limit` bytes of decoded views (`u64::MAX`: all).
+    pub fn new(limit: u64) -> Self {
+        Self {
+            views: std::sync::Mutex::new((lru::LruCache::unbounded(), 0)),
+            limit,
+        }
+    }
+
+    fn get_or_decode(
+        &self,
+        v: usize,
+        decode: impl FnOnce() -> Result<Vec<u8>, String>,
+    ) -> Result<std::sync::Arc<Vec<u8>>, String> {
+        let lock = || self.views.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(hit) = lock().0.get(&v) {
+            return Ok(hit.clone());
+        }
+        let data = std::sync::Arc::new(decode()?);
+        let mut g = lock();
+        let (cache, bytes) = &mut *g;
+        *bytes += data.len() as u64;
+        if let Some(old) = cache.put(v, data.clone()) {
+            *bytes -= old.len() as u64;
+        }
+        while *bytes > self.limit && cache.len() > 1 {
+            if let Some((_, old)) = cache.pop_lru() {
+                *bytes -= old.len() as u64;
+            }
+        }
+        Ok(data)
+    }
+}
+
+/// The buffers of a document and its decoded views.
 #[derive(Debug)]
 pub struct Buffers<'a> {
     pub doc: &'a Doc,
-    pub data: Vec<Vec<u8>>,
-    decoded: Vec<OnceCell<Result<Vec<u8>, String>>>,
+    data: &'a [BufData],
+    decoded: &'a Decoded,
     /// Bytes the buffers hold or decode to: no accessor has more elements.
     capacity: u64,
 }
 
+impl Buffers<'_> {
+    pub fn capacity(&self) -> u64 {
+        self.capacity
+    }
+}
+
 impl<'a> Buffers<'a> {
-    pub fn new(doc: &'a Doc, data: Vec<Vec<u8>>) -> Self {
-        let capacity = data.iter().map(|b| b.len() as u64).sum::<u64>()
+    pub fn new(doc: &'a Doc, data: &'a [BufData], decoded: &'a Decoded) -> Self {
+        let capacity = data.iter().map(BufData::len).sum::<u64>()
             + doc
                 .buffer_views
                 .iter()
                 .filter_map(|v| v.extensions.meshopt())
                 .map(|m| m.count.saturating_mul(m.byte_stride))
                 .fold(0u64, u64::saturating_add);
+        Self::with_capacity(doc, data, decoded, capacity)
+    }
+
+    /// [`Self::new`] with the capacity computed before (it visits every view).
+    pub fn with_capacity(
+        doc: &'a Doc,
+        data: &'a [BufData],
+        decoded: &'a Decoded,
+        capacity: u64,
+    ) -> Self {
         Self {
             doc,
             data,
+            decoded,
             capacity,
-            decoded: (0..doc.buffer_views.len())
-                .map(|_| OnceCell::new())
-                .collect(),
         }
     }
 
-    /// The bytes of buffer view `v`: decompressed when it is
-    /// meshopt-compressed, else a range of its buffer.
-    pub fn view(&self, v: usize) -> Result<&[u8], String> {
+    /// Bytes `offset..offset + len` of buffer view `v` (decompressed when it
+    /// is meshopt-compressed, else a range of its buffer, read only as far
+    /// as asked); `None` for `len` means to the view's end.
+    pub fn view(&self, v: usize, offset: u64, len: Option<u64>) -> Result<Bytes<'a>, String> {
         let views = &self.doc.buffer_views;
         let view = views
             .get(v)
             .ok_or_else(|| format!("bufferViews[{v}] does not exist ({} views)", views.len()))?;
         if let Some(m) = view.extensions.meshopt() {
-            return self.decoded[v]
-                .get_or_init(|| {
+            let data = self
+                .decoded
+                .get_or_decode(v, || {
                     let src = self.range(m.buffer, m.byte_offset, m.byte_length)?;
-                    meshopt_view::decode(m, src)
+                    meshopt_view::decode(m, &src)
                 })
-                .as_deref()
-                .map_err(|e| format!("bufferViews[{v}] (meshopt): {e}"));
+                .map_err(|e| format!("bufferViews[{v}] (meshopt): {e}"))?;
+            let total = data.len() as u64;
+            let (a, b) = sub_range(offset, len, total).ok_or_else(|| {
+                format!("bufferViews[{v}]: bytes {offset}+{len:?} out of its {total}")
+            })?;
+            return Ok(Bytes::Shared(data, a as usize, b as usize));
         }
         if self
             .doc
@@ -106,24 +229,59 @@ impl<'a> Buffers<'a> {
                 view.buffer
             ));
         }
-        self.range(view.buffer, view.byte_offset, view.byte_length)
+        // The whole view must lie in its buffer, whatever part is read.
+        self.check_range(view.buffer, view.byte_offset, view.byte_length)
+            .map_err(|e| format!("bufferViews[{v}]: {e}"))?;
+        let (a, b) = sub_range(offset, len, view.byte_length).ok_or_else(|| {
+            format!(
+                "bufferViews[{v}]: bytes {offset}+{len:?} out of its {}",
+                view.byte_length
+            )
+        })?;
+        self.range(view.buffer, view.byte_offset + a, b - a)
             .map_err(|e| format!("bufferViews[{v}]: {e}"))
     }
 
-    fn range(&self, buffer: usize, offset: u64, len: u64) -> Result<&[u8], String> {
+    /// The byte length of view `v` (decoded, for a meshopt view).
+    pub fn view_len(&self, v: usize) -> Result<u64, String> {
+        let view = self
+            .doc
+            .buffer_views
+            .get(v)
+            .ok_or_else(|| format!("bufferViews[{v}] does not exist"))?;
+        Ok(match view.extensions.meshopt() {
+            Some(m) => m.count.saturating_mul(m.byte_stride),
+            None => view.byte_length,
+        })
+    }
+
+    fn check_range(&self, buffer: usize, offset: u64, len: u64) -> Result<(), String> {
         let b = self
             .data
             .get(buffer)
             .ok_or_else(|| format!("buffers[{buffer}] does not exist"))?;
-        let end = offset.checked_add(len);
-        match end {
-            Some(e) if e <= b.len() as u64 => Ok(&b[offset as usize..e as usize]),
+        match offset.checked_add(len) {
+            Some(e) if e <= b.len() => Ok(()),
             _ => Err(format!(
                 "bytes {offset}+{len} out of range of buffers[{buffer}] ({} bytes)",
                 b.len()
             )),
         }
     }
+
+    fn range(&self, buffer: usize, offset: u64, len: u64) -> Result<Bytes<'a>, String> {
+        self.check_range(buffer, offset, len)?;
+        self.data[buffer].read(offset, len)
+    }
+}
+
+/// `offset..offset + len` (or to `total`) when it lies within `total`.
+fn sub_range(offset: u64, len: Option<u64>, total: u64) -> Option<(u64, u64)> {
+    let end = match len {
+        Some(l) => offset.checked_add(l)?,
+        None => total,
+    };
+    (offset <= end && end <= total).then_some((offset, end))
 }
 
 /// The value of one component as `f32`, normalized to [0, 1] or [-1, 1]
@@ -153,6 +311,28 @@ fn component_u32(t: u32, b: &[u8]) -> u32 {
     }
 }
 
+/// The bytes `count` elements of `elem` bytes, `stride` apart, span from
+/// `offset`, when they fit in `total` bytes.
+fn element_span(
+    total: u64,
+    offset: u64,
+    stride: u64,
+    elem: u64,
+    count: u64,
+) -> Result<u64, String> {
+    let span = match count {
+        0 => Some(0),
+        n => stride.checked_mul(n - 1).and_then(|x| x.checked_add(elem)),
+    };
+    match span {
+        Some(s) if stride >= elem && offset.checked_add(s).is_some_and(|e| e <= total) => Ok(s),
+        _ => Err(format!(
+            "out of range: {count} elements of {elem} bytes, stride {stride}, from byte \
+             {offset}, do not fit in its {total} bytes"
+        )),
+    }
+}
+
 /// Calls `f(i, bytes)` for each of `count` elements of `elem` bytes at
 /// `offset` in `bytes`, `stride` apart; checks the range first.
 fn each_element(
@@ -163,20 +343,7 @@ fn each_element(
     count: u64,
     mut f: impl FnMut(usize, &[u8]),
 ) -> Result<(), String> {
-    let need = match count {
-        0 => Some(0),
-        n => stride
-            .checked_mul(n - 1)
-            .and_then(|x| x.checked_add(elem))
-            .and_then(|x| x.checked_add(offset)),
-    };
-    if stride < elem || need.is_none_or(|n| n > bytes.len() as u64) {
-        return Err(format!(
-            "out of range: {count} elements of {elem} bytes, stride {stride}, from byte \
-             {offset}, do not fit in its {} bytes",
-            bytes.len()
-        ));
-    }
+    element_span(bytes.len() as u64, offset, stride, elem, count)?;
     for i in 0..count as usize {
         let at = offset as usize + i * stride as usize;
         f(i, &bytes[at..at + elem as usize]);
@@ -254,7 +421,6 @@ fn read<T: Copy, const N: usize>(
         .map_err(|_| format!("cannot allocate {count} elements"))?;
     match acc.buffer_view {
         Some(v) => {
-            let bytes = bufs.view(v)?;
             let view = &bufs.doc.buffer_views[v];
             // Vertex attributes are 4-byte aligned; an unstrided view is tight.
             let stride = view
@@ -263,14 +429,17 @@ fn read<T: Copy, const N: usize>(
                 .map(|m| m.byte_stride)
                 .or(view.byte_stride)
                 .unwrap_or(elem);
-            each_element(
-                bytes,
-                acc.byte_offset,
-                stride,
-                elem,
-                count as u64,
-                |_, b| out.push(decode(b)),
-            )
+            // The view's own range first (its error before the accessor's);
+            // then only the accessor's span of it is read.
+            bufs.view(v, 0, Some(0))?;
+            let span = bufs
+                .view_len(v)
+                .and_then(|total| element_span(total, acc.byte_offset, stride, elem, count as u64));
+            let span = span.map_err(|e| format!("bufferViews[{v}]: {e}"))?;
+            let bytes = bufs.view(v, acc.byte_offset, Some(span))?;
+            each_element(&bytes, 0, stride, elem, count as u64, |_, b| {
+                out.push(decode(b))
+            })
             .map_err(|e| format!("bufferViews[{v}]: {e}"))?;
         }
         None => out.resize(count, [zero; N]),
@@ -285,15 +454,15 @@ fn read<T: Copy, const N: usize>(
             t => return Err(format!("sparse.indices of type {}", component_name(t))),
         };
         let mut idx = Vec::with_capacity(s.count as usize);
-        let ibytes = bufs.view(it.buffer_view)?;
-        each_element(ibytes, it.byte_offset, isize, isize, s.count, |_, b| {
+        let ibytes = bufs.view(it.buffer_view, 0, None)?;
+        each_element(&ibytes, it.byte_offset, isize, isize, s.count, |_, b| {
             idx.push(component_u32(it.component_type, b))
         })
         .map_err(|e| format!("sparse.indices: {e}"))?;
-        let vbytes = bufs.view(s.values.buffer_view)?;
+        let vbytes = bufs.view(s.values.buffer_view, 0, None)?;
         let mut bad = None;
         each_element(
-            vbytes,
+            &vbytes,
             s.values.byte_offset,
             elem,
             elem,

@@ -93,7 +93,7 @@ pub struct Accessor {
     pub count: u64,
     #[serde(rename = "type")]
     pub kind: String,
-    pub sparse: Option<Sparse>,
+    pub sparse: Option<Box<Sparse>>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -132,16 +132,17 @@ pub struct BufferView {
 #[derive(Debug, Default, Deserialize)]
 #[serde(default)]
 pub struct ViewExtensions {
+    // Boxed: most views have neither, and a large scene has millions.
     #[serde(rename = "EXT_meshopt_compression")]
-    pub ext_meshopt: Option<Meshopt>,
+    pub ext_meshopt: Option<Box<Meshopt>>,
     #[serde(rename = "KHR_meshopt_compression")]
-    pub khr_meshopt: Option<Meshopt>,
+    pub khr_meshopt: Option<Box<Meshopt>>,
 }
 
 impl ViewExtensions {
     /// The meshopt-compressed source of the view, if any.
     pub fn meshopt(&self) -> Option<&Meshopt> {
-        self.khr_meshopt.as_ref().or(self.ext_meshopt.as_ref())
+        self.khr_meshopt.as_deref().or(self.ext_meshopt.as_deref())
     }
 }
 

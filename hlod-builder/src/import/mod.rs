@@ -18,6 +18,7 @@
 
 mod access;
 mod doc;
+mod lazy;
 mod meshopt_view;
 mod nodes;
 mod prims;
@@ -29,6 +30,8 @@ use glam::{DMat4, DVec3, Mat4};
 use serde_json::Value;
 
 use crate::mesh::{Aabb, Mesh};
+
+pub use lazy::{Opened, open};
 
 /// Why a glTF file could not be imported.
 #[derive(Debug, thiserror::Error)]
@@ -65,7 +68,10 @@ pub struct Instance {
 #[derive(Debug, Default)]
 pub struct Imported {
     /// One entry per glTF mesh; `None` when it has no usable triangles.
+    /// Empty for a scene [`open`]ed lazily ([`Opened::mesh`] reads them).
     pub meshes: Vec<Option<Mesh>>,
+    /// Size and box of each usable mesh (`None` as in `meshes`).
+    pub meta: Vec<Option<MeshMeta>>,
     pub instances: Vec<Instance>,
     /// Triangles of each mesh as read, before degenerate ones were dropped.
     pub source_tris: Vec<u64>,
@@ -73,9 +79,29 @@ pub struct Imported {
     pub warnings: Vec<String>,
     /// World position of the scene's coordinate origin.
     pub origin: [f64; 3],
-    /// Name and `extras` of each glTF mesh, and of each node.
+    /// Name and `extras` of each glTF mesh, and `extras` of each node (its
+    /// name is its instances').
     pub mesh_info: Vec<(Option<String>, Option<Value>)>,
-    pub node_info: Vec<(Option<String>, Option<Value>)>,
+    pub node_extras: Vec<Option<Value>>,
+}
+
+/// What is known of a usable mesh without its geometry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshMeta {
+    pub tris: usize,
+    pub vertices: usize,
+    /// Box of its referenced vertices, in its local space.
+    pub bounds: Aabb,
+}
+
+impl MeshMeta {
+    pub fn of(m: &Mesh) -> Self {
+        Self {
+            tris: m.tri_count(),
+            vertices: m.vertex_count(),
+            bounds: m.bounds(),
+        }
+    }
 }
 
 impl Imported {
@@ -83,8 +109,8 @@ impl Imported {
     pub fn instanced_triangles(&self) -> u64 {
         self.instances
             .iter()
-            .filter_map(|i| self.meshes[i.mesh].as_ref())
-            .map(|m| m.tri_count() as u64)
+            .filter_map(|i| self.meta[i.mesh].as_ref())
+            .map(|m| m.tris as u64)
             .sum()
     }
 
@@ -104,7 +130,7 @@ impl Imported {
         o.insert("name".into(), inst.name.clone().into());
         if let Some(n) = inst.node {
             o.insert("node".into(), n.into());
-            if let Some((_, Some(x))) = self.node_info.get(n) {
+            if let Some(Some(x)) = self.node_extras.get(n) {
                 o.insert("extras".into(), x.clone());
             }
         }
@@ -155,15 +181,31 @@ pub fn load(path: &Path) -> Result<Imported, ImportError> {
 /// Loads glTF or GLB bytes; external buffers are resolved against `base_dir`,
 /// errors name `path`.
 pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported, ImportError> {
-    let invalid = |what: String| ImportError::Invalid {
-        path: path.to_path_buf(),
-        what,
-    };
     let (json, bin) = doc::split(bytes).map_err(|what| ImportError::Parse {
         path: path.to_path_buf(),
         what,
     })?;
-    let doc = doc::parse(json).map_err(|what| {
+    let doc = parse_doc(json, path)?;
+    let data: Vec<access::BufData> = load_buffers(&doc, bin, base_dir)
+        .map_err(|what| ImportError::Invalid {
+            path: path.to_path_buf(),
+            what,
+        })?
+        .into_iter()
+        .map(access::BufData::Mem)
+        .collect();
+    let decoded = access::Decoded::new(u64::MAX);
+    assemble(
+        &doc,
+        &access::Buffers::new(&doc, &data, &decoded),
+        path,
+        true,
+    )
+}
+
+/// The document, a required extension it cannot honour refused first.
+fn parse_doc(json: &[u8], path: &Path) -> Result<doc::Doc, ImportError> {
+    doc::parse(json).map_err(|what| {
         if what.starts_with("requires the extension") {
             ImportError::Unsupported {
                 path: path.to_path_buf(),
@@ -175,37 +217,44 @@ pub fn load_slice(bytes: &[u8], base_dir: &Path, path: &Path) -> Result<Imported
                 what,
             }
         }
-    })?;
-    let data = load_buffers(&doc, bin, base_dir).map_err(&invalid)?;
-    let bufs = access::Buffers::new(&doc, data);
+    })
+}
+
+/// Reads every mesh (kept when `keep`, else only its [`MeshMeta`]) and
+/// places them.
+fn assemble(
+    doc: &doc::Doc,
+    bufs: &access::Buffers<'_>,
+    path: &Path,
+    keep: bool,
+) -> Result<Imported, ImportError> {
+    let invalid = |what: String| ImportError::Invalid {
+        path: path.to_path_buf(),
+        what,
+    };
     let mut out = Imported {
         mesh_info: doc
             .meshes
             .iter()
             .map(|m| (m.name.clone(), m.extras.clone()))
             .collect(),
-        node_info: doc
-            .nodes
-            .iter()
-            .map(|n| (n.name.clone(), n.extras.clone()))
-            .collect(),
+        node_extras: doc.nodes.iter().map(|n| n.extras.clone()).collect(),
         ..Imported::default()
     };
     for m in 0..doc.meshes.len() {
-        let (mesh, source) = prims::read_mesh(&bufs, m, &mut out.warnings).map_err(&invalid)?;
-        out.meshes.push(mesh);
+        let (mesh, source) = prims::read_mesh(bufs, m, &mut out.warnings).map_err(&invalid)?;
+        out.meta.push(mesh.as_ref().map(MeshMeta::of));
+        if keep {
+            out.meshes.push(mesh);
+        }
         out.source_tris.push(source);
     }
-    let boxes: Vec<Option<Aabb>> = out
-        .meshes
-        .iter()
-        .map(|m| m.as_ref().map(Mesh::bounds))
-        .collect();
-    let placed = nodes::place(&doc, &bufs, &boxes, &mut out.warnings).map_err(&invalid)?;
+    let boxes: Vec<Option<Aabb>> = out.meta.iter().map(|m| m.map(|m| m.bounds)).collect();
+    let placed = nodes::place(doc, bufs, &boxes, &mut out.warnings).map_err(&invalid)?;
     if placed.is_empty() {
         return Err(ImportError::NoTriangles {
             path: path.to_path_buf(),
-            why: no_triangles_why(&doc, &out.warnings),
+            why: no_triangles_why(doc, &out.warnings),
         });
     }
     out.origin = choose_origin(&placed, &boxes);
@@ -274,7 +323,7 @@ fn no_triangles_why(doc: &doc::Doc, warnings: &[String]) -> String {
 /// The bytes of every buffer: the GLB BIN chunk, a data URI or an external
 /// file (read up to its declared length); a meshopt fallback buffer
 /// without a source is empty.
-fn load_buffers(
+pub(super) fn load_buffers(
     doc: &doc::Doc,
     bin: Option<&[u8]>,
     base_dir: &Path,
@@ -319,7 +368,7 @@ fn load_buffers(
 /// The first `len` bytes of an external buffer file (what the buffer
 /// declares; a longer file is fine, a shorter one an error), never more:
 /// a buffer naming `/dev/zero` reads `len` bytes.
-fn read_buffer_file(file: &Path, len: u64) -> std::io::Result<Vec<u8>> {
+pub(super) fn read_buffer_file(file: &Path, len: u64) -> std::io::Result<Vec<u8>> {
     use std::io::Read;
     if len > max_input_bytes() {
         return Err(std::io::Error::new(
@@ -342,7 +391,7 @@ fn read_buffer_file(file: &Path, len: u64) -> std::io::Result<Vec<u8>> {
     Ok(out)
 }
 
-fn percent_decode(s: &str) -> String {
+pub(super) fn percent_decode(s: &str) -> String {
     let b = s.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;

@@ -14,7 +14,7 @@ use glam::{Mat4, Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::glb::{GlbObject, write_glb};
+use super::glb::GlbObject;
 use super::shapes::ShapeBuilder;
 use crate::mesh::Mesh;
 
@@ -77,52 +77,96 @@ const PIPES: [[u8; 4]; 5] = [
 
 /// Checks the parameters.
 pub fn check(p: &PlantParams) -> Result<(), String> {
-    if p.objects == 0 || p.objects > 5_000_000 {
-        return Err(format!("--objects {} must be in 1..=5000000", p.objects));
-    }
-    if p.triangles < 64 * p.objects as u64 || p.triangles > 400_000_000 {
+    if p.objects == 0 || p.objects > MAX_OBJECTS {
         return Err(format!(
-            "--triangles {} must be at least 64 per object ({}) and at most 400M",
-            p.triangles,
-            64 * p.objects as u64
+            "--objects {} must be in 1..={MAX_OBJECTS}",
+            p.objects
         ));
     }
-    // The generator holds the whole scene and its GLB document in memory.
-    let need = p.triangles.saturating_mul(BYTES_PER_TRIANGLE);
-    let have = engine::limits::memory_total();
-    if need > have {
+    if p.triangles < 64 * p.objects as u64 || p.triangles > MAX_TRIANGLES {
         return Err(format!(
-            "--triangles {}: generating needs about {} in memory ({BYTES_PER_TRIANGLE} bytes a triangle), this machine has {}",
+            "--triangles {} must be at least 64 per object ({}) and at most {MAX_TRIANGLES}",
             p.triangles,
-            engine::limits::human(need),
-            engine::limits::human(have)
+            64 * p.objects as u64
         ));
     }
     Ok(())
 }
 
-/// Peak memory of generation per triangle (6.5 GiB for the 82M-triangle
-/// plant, rounded up).
-const BYTES_PER_TRIANGLE: u64 = 90;
+/// Limits of the generator: the Boeing 777's parts and triangles, twice over
+/// (the generator streams; what it keeps per object is a few dozen bytes).
+pub const MAX_OBJECTS: usize = 5_000_000;
+pub const MAX_TRIANGLES: u64 = 1_000_000_000;
 
-/// Generates the plant: distinct meshes and the objects placing them. A
-/// second pass with a corrected budget brings the triangle count (after
-/// instancing) within a few percent of the target.
-pub fn generate(p: &PlantParams) -> Result<(Vec<Mesh>, Vec<GlbObject>), String> {
-    check(p)?;
-    let first = generate_with(p, 1.0);
-    let tris = |(m, o): &(Vec<Mesh>, Vec<GlbObject>)| -> u64 {
-        o.iter().map(|o| m[o.mesh].tri_count() as u64).sum()
-    };
-    let ratio = p.triangles as f64 / tris(&first).max(1) as f64;
-    if (ratio - 1.0).abs() < 0.02 {
-        return Ok(first);
-    }
-    Ok(generate_with(p, ratio))
+/// What one generation pass hands on, in order: a mesh (numbered from 0 in
+/// the order given), or an object placing a mesh given before.
+#[derive(Debug)]
+pub enum Part {
+    Mesh(Mesh),
+    Object(GlbObject),
 }
 
-/// One generation pass with every budget multiplied by `scale`.
-fn generate_with(p: &PlantParams, scale: f64) -> (Vec<Mesh>, Vec<GlbObject>) {
+/// Generates the plant into memory: distinct meshes and the objects
+/// placing them (small scenes and tests; [`write_plant`] streams).
+pub fn generate(p: &PlantParams) -> Result<(Vec<Mesh>, Vec<GlbObject>), String> {
+    let scale = budget_scale(p)?;
+    let (mut meshes, mut objects) = (Vec::new(), Vec::new());
+    generate_with(p, scale, &mut |part| {
+        match part {
+            Part::Mesh(m) => meshes.push(m),
+            Part::Object(o) => objects.push(o),
+        }
+        Ok(())
+    })
+    .map_err(|e| e.to_string())?;
+    Ok((meshes, objects))
+}
+
+/// Totals of one pass, counted without keeping the geometry.
+#[derive(Default)]
+struct Count {
+    mesh_tris: Vec<u64>,
+    triangles: u64,
+    bin_bytes: u64,
+}
+
+fn count(p: &PlantParams, scale: f64) -> Count {
+    let mut c = Count::default();
+    generate_with(p, scale, &mut |part| {
+        match part {
+            Part::Mesh(m) => {
+                c.mesh_tris.push(m.tri_count() as u64);
+                c.bin_bytes += super::glb::bin_bytes(&m);
+            }
+            Part::Object(o) => c.triangles += c.mesh_tris[o.mesh],
+        }
+        Ok(())
+    })
+    .expect("counting does not fail");
+    c
+}
+
+/// The factor on every budget that brings the triangle count (after
+/// instancing) within a few percent of the target: 1, or a second pass's
+/// correction, from a counting pass that keeps no geometry.
+fn budget_scale(p: &PlantParams) -> Result<f64, String> {
+    check(p)?;
+    let first = count(p, 1.0);
+    let ratio = p.triangles as f64 / first.triangles.max(1) as f64;
+    Ok(if (ratio - 1.0).abs() < 0.02 {
+        1.0
+    } else {
+        ratio
+    })
+}
+
+/// One generation pass with every budget multiplied by `scale`, handing each
+/// mesh and object to `emit` as it is made.
+fn generate_with(
+    p: &PlantParams,
+    scale: f64,
+    emit: &mut dyn FnMut(Part) -> std::io::Result<()>,
+) -> std::io::Result<()> {
     let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
     // Object kinds and placements, unit by unit.
     let mut specs: Vec<(Kind, u32, u32)> = Vec::new(); // kind, unit, index in unit
@@ -152,15 +196,13 @@ fn generate_with(p: &PlantParams, scale: f64) -> (Vec<Mesh>, Vec<GlbObject>) {
     let per_w = scale * p.triangles as f64 / total_w;
     let budget = |k: Kind| ((k.weight() * per_w) as usize).max(48);
 
-    let mut meshes: Vec<Mesh> = (0..EQUIPMENT_MODELS)
-        .map(|m| {
-            equipment_model(
-                &mut ChaCha8Rng::seed_from_u64(p.seed ^ ((m as u64 + 1) * 0x9E37)),
-                budget(Kind::Equipment),
-            )
-        })
-        .collect();
-    let mut objects = Vec::with_capacity(specs.len());
+    for m in 0..EQUIPMENT_MODELS {
+        emit(Part::Mesh(equipment_model(
+            &mut ChaCha8Rng::seed_from_u64(p.seed ^ ((m as u64 + 1) * 0x9E37)),
+            budget(Kind::Equipment),
+        )))?;
+    }
+    let mut next_mesh = EQUIPMENT_MODELS;
     for (i, &(kind, u, k)) in specs.iter().enumerate() {
         let origin = Vec3::new(
             (u % side) as f32 * UNIT * 1.25,
@@ -177,11 +219,11 @@ fn generate_with(p: &PlantParams, scale: f64) -> (Vec<Mesh>, Vec<GlbObject>) {
             );
             let rot =
                 Quat::from_rotation_y(std::f32::consts::FRAC_PI_2 * rng.random_range(0..4) as f32);
-            objects.push(GlbObject {
+            emit(Part::Object(GlbObject {
                 name,
                 mesh: rng.random_range(0..EQUIPMENT_MODELS),
                 transform: Mat4::from_rotation_translation(rot, origin + spot),
-            });
+            }))?;
             continue;
         }
         let mesh = match kind {
@@ -193,39 +235,69 @@ fn generate_with(p: &PlantParams, scale: f64) -> (Vec<Mesh>, Vec<GlbObject>) {
             Kind::Pipe => pipe(&mut rng, origin, i, b),
             Kind::Equipment => unreachable!("handled above"),
         };
-        objects.push(GlbObject {
+        emit(Part::Mesh(mesh))?;
+        emit(Part::Object(GlbObject {
             name,
-            mesh: meshes.len(),
+            mesh: next_mesh,
             transform: Mat4::IDENTITY,
-        });
-        meshes.push(mesh);
+        }))?;
+        next_mesh += 1;
     }
-    (meshes, objects)
+    Ok(())
 }
 
-/// Generates the plant and writes it as GLB.
+/// Generates the plant and streams it to `path` (`.glb`, or `.gltf` with a
+/// `.bin` past GLB's 4 GiB): memory stays at one object's geometry and a
+/// few dozen bytes per object, whatever the size.
 pub fn write_plant(p: &PlantParams, path: &Path) -> anyhow::Result<PlantStats> {
+    let named = |e: std::io::Error| anyhow::anyhow!("{}: {e}", path.display());
     engine::outfile::check_output(path, &[])?;
-    let (meshes, objects) = generate(p).map_err(anyhow::Error::msg)?;
-    let used: Vec<bool> = (0..meshes.len())
-        .map(|m| objects.iter().any(|o| o.mesh == m))
-        .collect();
-    let stats = PlantStats {
-        objects: objects.len(),
-        meshes: meshes.len(),
-        triangles: objects
-            .iter()
-            .map(|o| meshes[o.mesh].tri_count() as u64)
-            .sum(),
-        unique_triangles: meshes
-            .iter()
-            .zip(&used)
-            .filter(|(_, u)| **u)
-            .map(|(m, _)| m.tri_count() as u64)
-            .sum(),
-        bytes: write_glb(path, &[], &meshes, &objects)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?,
-    };
+    let scale = budget_scale(p).map_err(anyhow::Error::msg)?;
+    let glb = !path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
+    if glb {
+        // The size is known before anything is written: refuse a GLB that
+        // cannot hold the scene now rather than after generating it.
+        let bin = count(p, scale).bin_bytes;
+        if bin > super::glb::GLB_MAX_BYTES {
+            anyhow::bail!(
+                "{}: the scene's geometry is {}, past GLB's limit of 4 GiB: name a .gltf output \
+                 (JSON and one .bin of any size)",
+                path.display(),
+                engine::limits::human(bin)
+            );
+        }
+    }
+    let mut out = super::glb::SceneStream::create(path, &[]).map_err(named)?;
+    let mut stats = PlantStats::default();
+    let mut mesh_tris: Vec<u64> = Vec::new();
+    let mut used: Vec<bool> = Vec::new();
+    generate_with(p, scale, &mut |part| {
+        match part {
+            Part::Mesh(m) => {
+                mesh_tris.push(m.tri_count() as u64);
+                used.push(false);
+                out.add_mesh(&m)?;
+            }
+            Part::Object(o) => {
+                stats.objects += 1;
+                stats.triangles += mesh_tris[o.mesh];
+                used[o.mesh] = true;
+                out.add_object(&o);
+            }
+        }
+        Ok(())
+    })
+    .map_err(named)?;
+    stats.meshes = mesh_tris.len();
+    stats.unique_triangles = mesh_tris
+        .iter()
+        .zip(&used)
+        .filter(|(_, u)| **u)
+        .map(|(t, _)| t)
+        .sum();
+    stats.bytes = out.finish().map_err(named)?;
     Ok(stats)
 }
 

@@ -2,12 +2,12 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use glam::{Mat4, Vec3};
 
-use super::glb::{GlbObject, write_glb};
+use super::glb::{GlbObject, SceneStream};
 use crate::import;
-use crate::mesh::{Aabb, Mesh};
+use crate::mesh::Aabb;
 
 /// What was written.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -17,15 +17,16 @@ pub struct TileStats {
     pub bytes: u64,
 }
 
-/// Meshes and objects of `n x m` copies of the input on the XZ plane,
-/// `gap` (a fraction of the footprint) apart; `baked` copies the geometry.
-pub fn tile(
+/// Streams `n x m` copies of the input on the XZ plane, `gap` (a fraction of
+/// the footprint) apart, into `out`; `baked` copies the geometry (one mesh
+/// in memory at a time), else the tiles share the input's meshes.
+fn tile_into(
     imported: &import::Imported,
-    n: usize,
-    m: usize,
+    (n, m): (usize, usize),
     baked: bool,
     gap: f32,
-) -> (Vec<Mesh>, Vec<GlbObject>) {
+    out: &mut SceneStream,
+) -> std::io::Result<TileStats> {
     let mut bounds = Aabb::EMPTY;
     for inst in &imported.instances {
         if let Some(mesh) = &imported.meshes[inst.mesh] {
@@ -37,16 +38,14 @@ pub fn tile(
     let e = bounds.extent() * (1.0 + gap.max(0.0));
     // Usable meshes, renumbered.
     let mut index = vec![usize::MAX; imported.meshes.len()];
-    let mut meshes = Vec::new();
     if !baked {
         for (i, mm) in imported.meshes.iter().enumerate() {
             if let Some(mesh) = mm {
-                index[i] = meshes.len();
-                meshes.push(mesh.clone());
+                index[i] = out.add_mesh(mesh)?;
             }
         }
     }
-    let mut objects = Vec::new();
+    let mut stats = TileStats::default();
     for row in 0..m {
         for col in 0..n {
             let offset = Mat4::from_translation(Vec3::new(col as f32 * e.x, 0.0, row as f32 * e.z));
@@ -56,27 +55,30 @@ pub fn tile(
                 let mesh = imported.meshes[inst.mesh]
                     .as_ref()
                     .expect("instances use usable meshes");
-                if baked {
-                    objects.push(GlbObject {
+                let object = if baked {
+                    GlbObject {
                         name,
-                        mesh: meshes.len(),
+                        mesh: out.add_mesh(&mesh.transformed(&xf))?,
                         transform: Mat4::IDENTITY,
-                    });
-                    meshes.push(mesh.transformed(&xf));
+                    }
                 } else {
-                    objects.push(GlbObject {
+                    GlbObject {
                         name,
                         mesh: index[inst.mesh],
                         transform: xf,
-                    });
-                }
+                    }
+                };
+                out.add_object(&object);
+                stats.objects += 1;
+                stats.triangles += mesh.tri_count() as u64;
             }
         }
     }
-    (meshes, objects)
+    Ok(stats)
 }
 
-/// Loads `input`, tiles it and writes the GLB.
+/// Loads `input`, tiles it and writes the scene (`.glb`, or `.gltf` with a
+/// `.bin` of any size).
 pub fn write_tiled(
     input: &Path,
     n: usize,
@@ -90,16 +92,9 @@ pub fn write_tiled(
     }
     engine::outfile::check_output(out, &[input])?;
     let imported = import::load(input)?;
-    let (meshes, objects) = tile(&imported, n, m, baked, gap);
-    let triangles = objects
-        .iter()
-        .map(|o| meshes[o.mesh].tri_count() as u64)
-        .sum();
-    let bytes = write_glb(out, &[input], &meshes, &objects)
-        .with_context(|| format!("{}", out.display()))?;
-    Ok(TileStats {
-        objects: objects.len(),
-        triangles,
-        bytes,
-    })
+    let named = |e: std::io::Error| anyhow::anyhow!("{}: {e}", out.display());
+    let mut stream = SceneStream::create(out, &[input]).map_err(named)?;
+    let mut stats = tile_into(&imported, (n, m), baked, gap, &mut stream).map_err(named)?;
+    stats.bytes = stream.finish().map_err(named)?;
+    Ok(stats)
 }

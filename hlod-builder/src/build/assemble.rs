@@ -1,0 +1,308 @@
+//! Making nodes: a set of leaves (their LOD chains, trees and runs), then
+//! interior nodes (HLODs from their children's coarsest reps), written to
+//! the scene as they are made. Which nodes and in what groups is the
+//! caller's choice (cell by cell); a node's reps depend only on its own
+//! subtree, so the output does not.
+
+use std::io::{Seek, Write};
+
+use engine::FormatError;
+use engine::format::objects::Run;
+use engine::format::{NodeRecord, RepKind, RepMesh, RepRecord, SceneWriter};
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+
+use super::leaf::{Item, LeafGeometry, item_object, leaf_levels};
+use super::source::{CellGeometry, SceneSource};
+use super::{BuildParams, BuildStats, Report};
+use crate::cluster::TreeNode;
+use crate::lod::{Level, hlod, strictly_above};
+use crate::mesh::{Aabb, Mesh};
+
+/// A finished node's coarsest rep, kept for its parent's HLOD.
+pub(super) struct Coarse {
+    pub mesh: Mesh,
+    pub error: f32,
+}
+
+/// LOD chains of meshes placed by several single-instance leaves, by mesh.
+pub(super) type Chains = Vec<(usize, Vec<Level>)>;
+
+/// The scene being assembled: records so far, coarse reps awaiting their
+/// parents, and the writer.
+pub(super) struct Assembly<'a, W: Write + Seek> {
+    pub writer: SceneWriter<W>,
+    pub tree: &'a [TreeNode],
+    pub items: &'a [Item],
+    pub params: &'a BuildParams,
+    pub chains: &'a Chains,
+    pub nodes: Vec<NodeRecord>,
+    pub node_reps: Vec<Vec<RepRecord>>,
+    pub coarse: Vec<Option<Coarse>>,
+    pub leaf_runs: Vec<(u32, Vec<Run>)>,
+    pub stats: &'a mut BuildStats,
+    pub bar: ProgressBar,
+    pub report: Report<'a>,
+    pub done: u64,
+    /// Leaves made at once (in parallel, their results held until written).
+    pub batch: usize,
+}
+
+fn chain_of(chains: &Chains, m: usize) -> Option<&Vec<Level>> {
+    chains
+        .binary_search_by_key(&m, |(k, _)| *k)
+        .ok()
+        .map(|k| &chains[k].1)
+}
+
+impl<W: Write + Seek> Assembly<'_, W> {
+    /// Makes and writes `leaves`, `batch` at a time, loading each batch's
+    /// geometry from `src` (and dropping it) as it goes.
+    pub fn leaves<S: SceneSource>(&mut self, src: &S, leaves: &[usize]) -> Result<(), FormatError> {
+        let total = self.tree.len() as u64;
+        for batch in leaves.chunks(self.batch.max(1)) {
+            let (tree, items, chains, params) = (self.tree, self.items, self.chains, self.params);
+            let geo = CellGeometry::load(
+                src,
+                batch
+                    .iter()
+                    .flat_map(|&i| tree[i].items.iter().map(|&k| &items[k as usize])),
+                self.params,
+            )?;
+            let made: Vec<LeafGeometry> = batch
+                .par_iter()
+                .map(|&i| {
+                    leaf_levels(&tree[i].items, items, &geo, params, &|m| {
+                        chain_of(chains, m)
+                    })
+                })
+                .collect();
+            drop(geo);
+            for (&i, (levels, vdt, runs)) in batch.iter().zip(made) {
+                self.leaf(i, levels, vdt, runs)?;
+            }
+            (self.report)("leaf LODs", self.done, total);
+        }
+        Ok(())
+    }
+
+    fn leaf(
+        &mut self,
+        i: usize,
+        levels: Vec<Level>,
+        vdt: Option<crate::vdt::TreeRep>,
+        runs: Option<Vec<Run>>,
+    ) -> Result<(), FormatError> {
+        if let Some(r) = runs {
+            self.leaf_runs.push((i as u32, r));
+        }
+        let objects: Vec<u32> = self.tree[i]
+            .items
+            .iter()
+            .map(|&k| item_object(&self.items[k as usize]))
+            .collect();
+        let n = &mut self.nodes[i];
+        n.object_count = objects.len() as u32;
+        if objects.len() == 1 {
+            n.object = objects[0];
+            if matches!(
+                self.items[self.tree[i].items[0] as usize],
+                Item::Chunk { .. }
+            ) {
+                n.flags |= NodeRecord::FLAG_CHUNK;
+            }
+        } else {
+            n.flags |= NodeRecord::FLAG_MERGED;
+        }
+        let (mut recs, c) = write_chain(
+            &mut self.writer,
+            i as u32,
+            levels,
+            (RepKind::Lod, self.params.compress_reps),
+            0.0,
+        )?;
+        if let Some(t) = vdt {
+            if t.kind == RepKind::Mt {
+                self.stats.mt_objects += 1;
+            } else {
+                self.stats.vdt_objects += 1;
+            }
+            recs.push(crate::vdt::write_rep(
+                &mut self.writer,
+                i as u32,
+                &recs,
+                &t,
+            )?);
+        }
+        finish_node(&mut self.nodes[i], &recs, &c.mesh, &[]);
+        self.node_reps[i] = recs;
+        self.coarse[i] = Some(c);
+        self.bar.inc(1);
+        self.done += 1;
+        Ok(())
+    }
+
+    /// Makes and writes interior `nodes` (deepest first: every child is
+    /// done before its parent), 32 at a time within one depth.
+    pub fn interior(&mut self, nodes: &[usize]) -> Result<(), FormatError> {
+        let total = self.tree.len() as u64;
+        let tree = self.tree;
+        for level in nodes.chunk_by(|&a, &b| tree[a].depth == tree[b].depth) {
+            for batch in level.chunks(32) {
+                let inputs: Vec<(Mesh, f32)> = batch
+                    .iter()
+                    .map(|&i| {
+                        let kids: Vec<&Coarse> = tree[i]
+                            .children
+                            .iter()
+                            .map(|&c| {
+                                self.coarse[c as usize]
+                                    .as_ref()
+                                    .expect("children done first")
+                            })
+                            .collect();
+                        let merged = Mesh::merge(kids.iter().map(|k| &k.mesh));
+                        let floor = kids.iter().map(|k| k.error).fold(0.0, f32::max);
+                        (merged, floor)
+                    })
+                    .collect();
+                let params = self.params;
+                let made: Vec<(Mesh, f32, f32)> = inputs
+                    .into_par_iter()
+                    .map(|(merged, floor)| {
+                        let budget = ((merged.tri_count() as f32 * params.hlod_ratio) as usize)
+                            .clamp(
+                                params.lod.min_tris.min(merged.tri_count()),
+                                params.hlod_tris,
+                            );
+                        let (m, e) = hlod(&merged, budget);
+                        (m, floor, e)
+                    })
+                    .collect();
+                for (&i, (mesh, floor, e)) in batch.iter().zip(made) {
+                    self.hlod_node(i, mesh, floor, floor + e)?;
+                }
+                (self.report)("HLODs", self.done, total);
+            }
+        }
+        Ok(())
+    }
+
+    fn hlod_node(
+        &mut self,
+        i: usize,
+        mesh: Mesh,
+        floor: f32,
+        error: f32,
+    ) -> Result<(), FormatError> {
+        let (recs, c) = write_chain(
+            &mut self.writer,
+            i as u32,
+            vec![Level { mesh, error }],
+            (RepKind::Hlod, self.params.compress_reps),
+            floor,
+        )?;
+        let children = &self.tree[i].children;
+        let child_boxes: Vec<([f32; 3], [f32; 3])> = children
+            .iter()
+            .map(|&ch| {
+                (
+                    self.nodes[ch as usize].bbox_min,
+                    self.nodes[ch as usize].bbox_max,
+                )
+            })
+            .collect();
+        self.nodes[i].object_count = children
+            .iter()
+            .map(|&ch| self.nodes[ch as usize].object_count)
+            .sum();
+        finish_node(&mut self.nodes[i], &recs, &c.mesh, &child_boxes);
+        self.node_reps[i] = recs;
+        self.coarse[i] = Some(c);
+        for &ch in children {
+            self.coarse[ch as usize] = None;
+        }
+        self.bar.inc(1);
+        self.done += 1;
+        Ok(())
+    }
+}
+
+/// Writes a node's levels (coarsest first), compressed or not; `floor` is an
+/// error every rep must exceed (the children's for an HLOD). Returns the
+/// records and the coarsest level.
+fn write_chain<W: Write + Seek>(
+    writer: &mut SceneWriter<W>,
+    node: u32,
+    levels: Vec<Level>,
+    (kind, compress): (RepKind, bool),
+    floor: f32,
+) -> Result<(Vec<RepRecord>, Coarse), FormatError> {
+    let n = levels.len();
+    let mut recs = vec![RepRecord::default(); n];
+    let mut below = if kind == RepKind::Hlod {
+        Some(floor)
+    } else {
+        None
+    };
+    // Finest first, so each coarser error is made strictly larger.
+    for (i, level) in levels.iter().enumerate().rev() {
+        let m = &level.mesh;
+        let packed = RepMesh::quantize(&m.positions, &m.normals, &m.colors, m.indices.clone());
+        let raw = level.error + packed.quantization_error();
+        let error = match below {
+            Some(b) => strictly_above(b, raw),
+            None => raw,
+        };
+        below = Some(error);
+        let payload = if compress {
+            packed.encode_compressed(node, i as u32)
+        } else {
+            packed.encode(node, i as u32)
+        };
+        let loc = writer.write_rep(&payload)?;
+        let (bbox_min, bbox_max) = m.bounds().to_arrays();
+        recs[i] = RepRecord {
+            bbox_min,
+            bbox_max,
+            node,
+            index: i as u16,
+            kind: kind as u16,
+            error,
+            checksum: loc.checksum,
+            offset: loc.offset,
+            len: loc.len,
+            tri_count: m.tri_count() as u32,
+            vertex_count: m.vertex_count() as u32,
+            aux: 0,
+        };
+    }
+    let first = levels.into_iter().next().expect("at least one level");
+    Ok((
+        recs.clone(),
+        Coarse {
+            mesh: first.mesh,
+            error: recs[0].error,
+        },
+    ))
+}
+
+/// Box and colour of a node from its reps and children.
+fn finish_node(
+    n: &mut NodeRecord,
+    reps: &[RepRecord],
+    color_mesh: &Mesh,
+    child_boxes: &[([f32; 3], [f32; 3])],
+) {
+    let mut b = Aabb::EMPTY;
+    for r in reps {
+        b.add(r.bbox_min.into());
+        b.add(r.bbox_max.into());
+    }
+    for (mn, mx) in child_boxes {
+        b.add((*mn).into());
+        b.add((*mx).into());
+    }
+    (n.bbox_min, n.bbox_max) = b.to_arrays();
+    n.color = u32::from_le_bytes(color_mesh.dominant_color());
+}
