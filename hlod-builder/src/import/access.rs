@@ -421,7 +421,13 @@ fn read<T: Copy, const N: usize>(
         .map_err(|_| format!("cannot allocate {count} elements"))?;
     match acc.buffer_view {
         Some(v) => {
-            let view = &bufs.doc.buffer_views[v];
+            // The view's own range first (its error before the accessor's).
+            bufs.view(v, 0, Some(0))?;
+            let view = bufs
+                .doc
+                .buffer_views
+                .get(v)
+                .ok_or_else(|| format!("bufferViews[{v}] does not exist"))?;
             // Vertex attributes are 4-byte aligned; an unstrided view is tight.
             let stride = view
                 .extensions
@@ -429,9 +435,7 @@ fn read<T: Copy, const N: usize>(
                 .map(|m| m.byte_stride)
                 .or(view.byte_stride)
                 .unwrap_or(elem);
-            // The view's own range first (its error before the accessor's);
-            // then only the accessor's span of it is read.
-            bufs.view(v, 0, Some(0))?;
+            // Then only the accessor's span of it is read.
             let span = bufs
                 .view_len(v)
                 .and_then(|total| element_span(total, acc.byte_offset, stride, elem, count as u64));
