@@ -11,9 +11,11 @@
 //! 3. **The walk**: in the largest walkable region of each storey, from
 //!    cell to randomly drawn cells along shortest grid paths (through doors),
 //!    at walking speed, looking where it goes. Storeys are visited bottom to
-//!    top; the walk goes up through an opening in the floor above (a
-//!    stairwell) when there is one, and otherwise moves to the next storey's
-//!    region directly (counted in [`InteriorPath::jumps`]).
+//!    top; the walk climbs a stair to the next storey when one joins them
+//!    (treads found in the triangles, see [`stairs`]), goes up through an
+//!    opening in the floor above (a stairwell) when there is only that, and
+//!    otherwise moves to the next storey's region directly (counted in
+//!    [`InteriorPath::jumps`]).
 //!
 //! The up axis is +Y (glTF's). The same triangles, parameters and seed give
 //! the same path.
@@ -60,6 +62,8 @@ pub struct InteriorPath {
     pub cells: Vec<usize>,
     /// Moves to the next storey without an opening to climb through.
     pub jumps: u32,
+    /// Moves to the next storey up a stair found in the triangles.
+    pub climbs: u32,
 }
 
 /// Why no path was made.
@@ -91,17 +95,21 @@ impl Grid {
 
     /// Marks the cells the xz shadow of polygon `p` touches.
     fn mark(&self, p: &[Vec3], out: &mut [bool]) {
+        self.visit(p, |i| out[i] = true);
+    }
+
+    /// Calls `f` on the cells the xz shadow of polygon `p` touches (a cell
+    /// may come more than once).
+    fn visit(&self, p: &[Vec3], mut f: impl FnMut(usize)) {
         let lo = p.iter().fold(Vec3::INFINITY, |a, &b| a.min(b));
         let hi = p.iter().fold(Vec3::NEG_INFINITY, |a, &b| a.max(b));
-        let to =
-            |v: f32, m: f32, n: usize| (((v - m) / self.cell).floor().max(0.0) as usize).min(n - 1);
-        let (x0, x1) = (to(lo.x, self.min.0, self.nx), to(hi.x, self.min.0, self.nx));
-        let (z0, z1) = (to(lo.z, self.min.1, self.nz), to(hi.z, self.min.1, self.nz));
+        let (x0, x1) = (self.x_of(lo.x), self.x_of(hi.x));
+        let (z0, z1) = (self.z_of(lo.z), self.z_of(hi.z));
         if x1 - x0 <= 1 || z1 - z0 <= 1 {
             // Thin (a wall seen from above): its box is its shadow.
             for z in z0..=z1 {
                 for x in x0..=x1 {
-                    out[z * self.nx + x] = true;
+                    f(z * self.nx + x);
                 }
             }
             return;
@@ -112,17 +120,25 @@ impl Grid {
             let n = ((b - a).length() / (0.5 * self.cell)).ceil().max(1.0) as usize;
             for s in 0..=n {
                 let q = a.lerp(b, s as f32 / n as f32);
-                out[to(q.z, self.min.1, self.nz) * self.nx + to(q.x, self.min.0, self.nx)] = true;
+                f(self.z_of(q.z) * self.nx + self.x_of(q.x));
             }
         }
         for z in z0..=z1 {
             for x in x0..=x1 {
                 let (cx, cz) = self.centre(z * self.nx + x);
                 if inside_xz(p, cx, cz) {
-                    out[z * self.nx + x] = true;
+                    f(z * self.nx + x);
                 }
             }
         }
+    }
+
+    fn x_of(&self, v: f32) -> usize {
+        (((v - self.min.0) / self.cell).floor().max(0.0) as usize).min(self.nx - 1)
+    }
+
+    fn z_of(&self, v: f32) -> usize {
+        (((v - self.min.1) / self.cell).floor().max(0.0) as usize).min(self.nz - 1)
     }
 }
 
@@ -279,11 +295,14 @@ pub fn interior_path(
         storeys: Vec::new(),
         cells: Vec::new(),
         jumps: 0,
+        climbs: 0,
     };
-    let regions: Vec<(f32, Vec<usize>)> = walk
+    // Per storey walked: its index in `walk`, height and largest region.
+    let regions: Vec<(usize, f32, Vec<usize>)> = walk
         .iter()
-        .map(|(f, free, _)| (*f, largest_region(&g, free)))
-        .filter(|(_, r)| r.len() >= 16)
+        .enumerate()
+        .map(|(s, (f, free, _))| (s, *f, largest_region(&g, free)))
+        .filter(|(_, _, r)| r.len() >= 16)
         .collect();
     if regions.is_empty() {
         return Err(InteriorError::NoFreeSpace);
@@ -291,7 +310,15 @@ pub fn interior_path(
     let per = frames.div_ceil(regions.len());
     let mut points: Vec<Vec3> = Vec::new();
     let mut climbed: Option<usize> = None;
-    for (k, (f, region)) in regions.iter().enumerate() {
+    for (k, (s, f, largest)) in regions.iter().enumerate() {
+        // The region a climb from below arrived in (another flat of the
+        // storey, say), else the storey's largest.
+        let arrived = climbed.take();
+        let own = arrived
+            .filter(|&i| walk[*s].1[i])
+            .map(|i| region_containing(&g, &walk[*s].1, i))
+            .filter(|r| r.len() >= 16);
+        let region = own.as_ref().unwrap_or(largest);
         out.storeys.push(*f);
         out.cells.push(region.len());
         let y = f + p.eye_height;
@@ -305,7 +332,7 @@ pub fn interior_path(
         }
         // Enter where the climb from below arrived; otherwise jump (above
         // where the walk below ended, if that is walkable here).
-        let mut cur = match (climbed.take(), points.last()) {
+        let mut cur = match (arrived, points.last()) {
             (Some(i), _) if free[i] => i,
             (_, Some(q)) => {
                 out.jumps += 1;
@@ -331,7 +358,24 @@ pub fn interior_path(
             }
             cur = target;
         }
-        // Up through an opening in the next storey's floor, if any is near.
+        // Up the stairs to the next storey walked, if a stair joins the two;
+        // else through an opening in the next storey's floor, if one is near.
+        if let Some((ns, nf, _)) = regions.get(k + 1) {
+            let lo = stairs::Storey {
+                floor: *f,
+                free: &free,
+            };
+            let hi = stairs::Storey {
+                floor: *nf,
+                free: &walk[*ns].1,
+            };
+            if let Some(c) = stairs::climb(tris, &g, lo, hi, cur, p.eye_height) {
+                points.extend(c.points);
+                climbed = Some(c.end);
+                out.climbs += 1;
+                continue;
+            }
+        }
         if let Some((nf, nfree, nfloor)) = walk.iter().find(|w| w.0 > *f) {
             let up = region
                 .iter()
@@ -377,9 +421,7 @@ pub fn scene_triangles<S: crate::io::ByteSource>(
 }
 
 fn cell_of(g: &Grid, q: Vec3) -> usize {
-    let x = (((q.x - g.min.0) / g.cell).floor().max(0.0) as usize).min(g.nx - 1);
-    let z = (((q.z - g.min.1) / g.cell).floor().max(0.0) as usize).min(g.nz - 1);
-    z * g.nx + x
+    g.z_of(q.z) * g.nx + g.x_of(q.x)
 }
 
 fn near_free(g: &Grid, free: &[bool], i: usize) -> bool {
@@ -413,28 +455,40 @@ fn largest_region(g: &Grid, free: &[bool]) -> Vec<usize> {
     let mut seen = vec![false; free.len()];
     let mut best: Vec<usize> = Vec::new();
     for s in 0..free.len() {
-        if !free[s] || seen[s] {
-            continue;
-        }
-        let mut region = vec![s];
-        seen[s] = true;
-        let mut k = 0;
-        while k < region.len() {
-            let i = region[k];
-            k += 1;
-            for n in neighbours(g, i) {
-                if free[n] && !seen[n] {
-                    seen[n] = true;
-                    region.push(n);
-                }
+        if free[s] && !seen[s] {
+            let region = flood(g, free, s, &mut seen);
+            if region.len() > best.len() {
+                best = region;
             }
-        }
-        if region.len() > best.len() {
-            best = region;
         }
     }
     best.sort_unstable();
     best
+}
+
+/// The 4-connected set of `free` cells holding cell `i`, in ascending order.
+fn region_containing(g: &Grid, free: &[bool], i: usize) -> Vec<usize> {
+    let mut r = flood(g, free, i, &mut vec![false; free.len()]);
+    r.sort_unstable();
+    r
+}
+
+/// The free cells reached from free cell `s` (marked in `seen`).
+fn flood(g: &Grid, free: &[bool], s: usize, seen: &mut [bool]) -> Vec<usize> {
+    let mut region = vec![s];
+    seen[s] = true;
+    let mut k = 0;
+    while k < region.len() {
+        let i = region[k];
+        k += 1;
+        for n in neighbours(g, i) {
+            if free[n] && !seen[n] {
+                seen[n] = true;
+                region.push(n);
+            }
+        }
+    }
+    region
 }
 
 /// A shortest 4-connected route from `a` to `b` through `free` cells
@@ -512,5 +566,6 @@ fn follow(points: &[Vec3], frames: usize, p: &InteriorParams) -> Vec<Pose> {
         .collect()
 }
 
+mod stairs;
 #[cfg(test)]
 mod tests;

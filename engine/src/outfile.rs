@@ -13,7 +13,9 @@
 //!   dropped, and on SIGINT, SIGTERM and SIGHUP; one left by a process killed
 //!   outright (SIGKILL, power loss) is removed by the next writer into the
 //!   same folder: every live temporary file holds an exclusive lock, so one
-//!   whose lock can be taken has no owner.
+//!   whose lock can be taken has no owner (a file is locked before it gets
+//!   the name sweepers look for, so concurrent writers into one folder, such
+//!   as shard jobs, never take each other's).
 //! - [`ensure_free`] checks the free space of the target's file system.
 
 use std::fs::File;
@@ -83,12 +85,7 @@ impl OutputFile {
             .chars()
             .take(50)
             .collect();
-        let tmp = tempfile::Builder::new()
-            .prefix(&format!(".{name}."))
-            .suffix(TEMP_SUFFIX)
-            .tempfile_in(dir)
-            .map_err(io_err)?;
-        tmp.as_file().try_lock().map_err(|e| io_err(e.into()))?;
+        let tmp = claim_temp(dir, &name).map_err(io_err)?;
         live().push(tmp.path().to_path_buf());
         Ok(Self {
             target,
@@ -288,6 +285,40 @@ fn kind_of(meta: &std::fs::Metadata) -> &'static str {
     "not a regular file"
 }
 
+/// A new temporary output in `dir`, locked. It is made under a claim name
+/// that sweepers leave alone while it is young, locked, and only then
+/// linked under its [`TEMP_SUFFIX`] name: a writer in another process that
+/// sweeps the folder at that moment cannot take the lock of a file not yet
+/// locked (and remove it, or make the lock fail with "would block").
+fn claim_temp(dir: &Path, name: &str) -> io::Result<tempfile::NamedTempFile> {
+    let claim = tempfile::Builder::new()
+        .prefix(&format!(".{name}."))
+        .suffix(CLAIM_SUFFIX)
+        .tempfile_in(dir)?;
+    claim.as_file().try_lock().map_err(io::Error::from)?;
+    let (file, claim_path) = claim.into_parts();
+    let claimed = claim_path.to_string_lossy().into_owned();
+    let tmp_path = PathBuf::from(format!(
+        "{}{TEMP_SUFFIX}",
+        claimed.strip_suffix(CLAIM_SUFFIX).unwrap_or(&claimed)
+    ));
+    // A hard link never replaces an existing file; the claim name goes
+    // when `claim_path` drops.
+    std::fs::hard_link(&claim_path, &tmp_path)?;
+    drop(claim_path);
+    Ok(tempfile::NamedTempFile::from_parts(
+        file,
+        tempfile::TempPath::try_from_path(tmp_path)?,
+    ))
+}
+
+/// Suffix of a temporary output being created, before its lock is held.
+const CLAIM_SUFFIX: &str = ".hlod-new";
+
+/// How old an unlocked claim must be to count as left behind (a live one
+/// is younger than a millisecond before it is locked).
+const CLAIM_STALE: std::time::Duration = std::time::Duration::from_secs(60);
+
 /// [`remove_stale`] the first time this process writes into `dir` (a run
 /// writing hundreds of files into one folder lists it once).
 fn sweep_once(dir: &Path) {
@@ -310,10 +341,16 @@ pub fn remove_stale(dir: &Path) -> usize {
     for e in entries.flatten() {
         let name = e.file_name();
         let name = name.to_string_lossy();
-        if !(name.starts_with('.') && name.ends_with(TEMP_SUFFIX)) {
+        let claim = name.ends_with(CLAIM_SUFFIX);
+        if !(name.starts_with('.') && (name.ends_with(TEMP_SUFFIX) || claim)) {
             continue;
         }
         let path = e.path();
+        let young =
+            |m: std::fs::Metadata| m.modified().ok()?.elapsed().ok().map(|a| a < CLAIM_STALE);
+        if claim && e.metadata().ok().and_then(young).unwrap_or(true) {
+            continue;
+        }
         let Ok(f) = File::open(&path) else { continue };
         if f.try_lock().is_ok() && std::fs::remove_file(&path).is_ok() {
             tracing::info!("removed {} left by an interrupted run", path.display());
@@ -453,6 +490,58 @@ mod tests {
         write_bytes(&out, b"ok").unwrap();
         assert_eq!(names(dir.path()), ["o.csv"]);
         assert_eq!(std::fs::read(&out).unwrap(), b"ok");
+    }
+
+    #[test]
+    fn concurrent_writers_into_one_folder_never_take_each_others_files() {
+        // Found by four shard jobs writing into one folder: one job's sweep
+        // took the lock of another's file between its creation and its lock.
+        use std::sync::atomic::{AtomicBool, Ordering};
+        let dir = tempfile::tempdir().unwrap();
+        let done = AtomicBool::new(false);
+        std::thread::scope(|s| {
+            s.spawn(|| {
+                while !done.load(Ordering::Relaxed) {
+                    remove_stale(dir.path());
+                }
+            });
+            let writers: Vec<_> = (0..3)
+                .map(|t| {
+                    let dir = dir.path();
+                    s.spawn(move || {
+                        for k in 0..150 {
+                            let out = dir.join(format!("o{t}-{k}.csv"));
+                            write_bytes(&out, format!("{t} {k}").as_bytes()).unwrap();
+                        }
+                    })
+                })
+                .collect();
+            let ended: Vec<bool> = writers.into_iter().map(|w| w.join().is_ok()).collect();
+            done.store(true, Ordering::Relaxed);
+            assert!(ended.iter().all(|&ok| ok), "a writer failed: {ended:?}");
+        });
+        let mut n = names(dir.path());
+        n.retain(|f| f.ends_with(".csv"));
+        assert_eq!(n.len(), 450, "every write landed, nothing temporary left");
+        assert_eq!(std::fs::read(dir.path().join("o2-7.csv")).unwrap(), b"2 7");
+    }
+
+    #[test]
+    fn a_claim_left_behind_is_removed_once_old() {
+        let dir = tempfile::tempdir().unwrap();
+        let young = dir.path().join(format!(".a.csv.x1{CLAIM_SUFFIX}"));
+        let old = dir.path().join(format!(".b.csv.x2{CLAIM_SUFFIX}"));
+        std::fs::write(&young, b"").unwrap();
+        std::fs::write(&old, b"").unwrap();
+        let hour_ago = std::time::SystemTime::now() - std::time::Duration::from_secs(3600);
+        File::options()
+            .write(true)
+            .open(&old)
+            .unwrap()
+            .set_modified(hour_ago)
+            .unwrap();
+        assert_eq!(remove_stale(dir.path()), 1);
+        assert!(young.exists() && !old.exists());
     }
 
     #[test]

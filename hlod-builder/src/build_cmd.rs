@@ -114,24 +114,32 @@ fn params_of(a: &BuildArgs) -> Result<BuildParams> {
     })
 }
 
+/// How the build reports: a progress bar on a terminal unless `-q`.
+fn run_options(a: &BuildArgs) -> hlod_builder::build::RunOptions<'static> {
+    hlod_builder::build::RunOptions {
+        progress: !a.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr()),
+        report: &|_, _, _| {},
+        memory_limit: a.memory_limit,
+    }
+}
+
+/// The summary table's header and the row of `input`'s build.
+fn print_table(input: &std::path::Path, stats: &hlod_builder::build::BuildStats) {
+    let name = input
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    println!("{TABLE_HEADER}\n{}", table_row(&name, stats));
+}
+
 pub(crate) fn merge(a: BuildArgs, shards: &[PathBuf]) -> Result<()> {
     if a.shard.is_some() {
         bail!("merge takes the shard files, not --shard");
     }
     let params = params_of(&a)?;
-    let show = !a.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let opts = hlod_builder::build::RunOptions {
-        progress: show,
-        report: &|_, _, _| {},
-        memory_limit: a.memory_limit,
-    };
+    let opts = run_options(&a);
     let stats =
         hlod_builder::build::shard::merge_files(&a.input, shards, &a.output, &params, &opts)?;
-    let name = a
-        .input
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
+    print_table(&a.input, &stats);
     println!(
         "merged {} shards into {}; peak heap {}",
         stats.cells,
@@ -145,13 +153,8 @@ pub(crate) fn merge(a: BuildArgs, shards: &[PathBuf]) -> Result<()> {
 
 pub(crate) fn build(a: BuildArgs) -> Result<()> {
     let params = params_of(&a)?;
-    let show = !a.quiet && std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let opts = run_options(&a);
     if let Some(spec) = a.shard {
-        let opts = hlod_builder::build::RunOptions {
-            progress: show,
-            report: &|_, _, _| {},
-            memory_limit: a.memory_limit,
-        };
         let s = hlod_builder::build::shard::build_shard_file(
             &a.input, &a.output, &params, &opts, spec,
         )?;
@@ -169,17 +172,8 @@ pub(crate) fn build(a: BuildArgs) -> Result<()> {
         return Ok(());
     }
     // Import warnings are printed by the build as soon as they are known.
-    let opts = hlod_builder::build::RunOptions {
-        progress: show,
-        report: &|_, _, _| {},
-        memory_limit: a.memory_limit,
-    };
     let stats = hlod_builder::build::build_file_with(&a.input, &a.output, &params, &opts)?;
-    let name = a
-        .input
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
+    print_table(&a.input, &stats);
     println!(
         "wrote {} ({} objects split into chunks, {} with a view-dependence tree, {} with a Multi-Triangulation, {} degenerate triangles dropped)",
         a.output.display(),

@@ -65,31 +65,44 @@ impl Triangles {
     /// triangle is that near (the caller wants the largest distance of
     /// many points: one within the largest so far cannot change it).
     ///
-    /// Consecutive samples lie close together, so the leaf that ended the
-    /// last search is tried first: most searches end there.
+    /// Consecutive samples lie close together, so the triangle and the leaf
+    /// that ended the last search are tried first: most searches end there.
+    /// (Stopping early changes no result: the minimum is the same in any
+    /// order, and a value at most `enough` is all the caller needs.)
     fn nearest2(&self, p: Vec3A, enough: f32, q: &mut Query) -> f32 {
-        let mut best = f32::INFINITY;
+        let near = |t: u32| point_triangle2(p, &self.tris[t as usize]);
+        // The triangle that ended the last search, first: often it ends this one.
+        let mut best = q.last_tri.map_or(f32::INFINITY, near);
+        if best <= enough {
+            return best;
+        }
         let Some(bvh) = self.bvh.as_ref().filter(|b| !b.nodes.is_empty()) else {
-            for t in &self.tris {
-                best = best.min(point_triangle2(p, t));
+            for t in 0..self.tris.len() as u32 {
+                best = best.min(near(t));
                 if best <= enough {
+                    q.last_tri = Some(t);
                     break;
                 }
             }
             return best;
         };
+        // A leaf's triangles until one is near enough (its index then).
         let leaf = |i: usize, best: &mut f32| {
             let node = &bvh.nodes[i];
             let f = node.first_index as usize;
             for &t in &bvh.primitive_indices[f..f + node.prim_count as usize] {
-                *best = best.min(point_triangle2(p, &self.tris[t as usize]));
+                *best = best.min(near(t));
+                if *best <= enough {
+                    return Some(t);
+                }
             }
+            None
         };
-        if let Some(i) = q.last_leaf {
-            leaf(i, &mut best);
-            if best <= enough {
-                return best;
-            }
+        if let Some(i) = q.last_leaf
+            && let Some(t) = leaf(i, &mut best)
+        {
+            q.last_tri = Some(t);
+            return best;
         }
         q.stack.clear();
         q.stack.push((0usize, 0.0f32));
@@ -99,9 +112,8 @@ impl Triangles {
             }
             let node = &bvh.nodes[i];
             if node.is_leaf() {
-                leaf(i, &mut best);
-                if best <= enough {
-                    q.last_leaf = Some(i);
+                if let Some(t) = leaf(i, &mut best) {
+                    (q.last_leaf, q.last_tri) = (Some(i), Some(t));
                     return best;
                 }
                 continue;
@@ -125,8 +137,9 @@ impl Triangles {
 #[derive(Default)]
 struct Query {
     stack: Vec<(usize, f32)>,
-    /// The leaf that ended the last search early.
+    /// The leaf that ended the last search early, and its triangle.
     last_leaf: Option<usize>,
+    last_tri: Option<u32>,
 }
 
 fn box2(p: Vec3A, b: &BvhAabb) -> f32 {

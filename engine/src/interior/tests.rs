@@ -129,3 +129,90 @@ fn a_scene_without_floors_or_rooms_is_refused() {
         Err(InteriorError::NoFloors)
     );
 }
+
+/// Two storeys 3 m apart (rooms as in [`house`]) joined by a straight
+/// flight of 15 solid steps (0.25 m deep, 0.2 m high, 1 m wide) along x
+/// in the first room, under an opening in the slab between them.
+fn house_with_stair() -> Vec<[Vec3; 3]> {
+    let mut t = Vec::new();
+    for s in 0..2 {
+        let y = 3.0 * s as f32;
+        // Walls as in `house`.
+        for (a, b) in [
+            (Vec3::new(-0.2, y, 0.0), Vec3::new(0.0, y + 2.8, 6.0)),
+            (Vec3::new(12.0, y, 0.0), Vec3::new(12.2, y + 2.8, 6.0)),
+            (Vec3::new(0.0, y, -0.2), Vec3::new(12.0, y + 2.8, 0.0)),
+            (Vec3::new(0.0, y, 6.0), Vec3::new(12.0, y + 2.8, 6.2)),
+            (Vec3::new(5.9, y, 0.0), Vec3::new(6.1, y + 2.8, 2.5)),
+            (Vec3::new(5.9, y, 3.5), Vec3::new(6.1, y + 2.8, 6.0)),
+        ] {
+            cuboid(a, b, &mut t);
+        }
+    }
+    // The ground slab and the roof, whole.
+    cuboid(Vec3::new(0.0, -0.2, 0.0), Vec3::new(12.0, 0.0, 6.0), &mut t);
+    cuboid(Vec3::new(0.0, 5.8, 0.0), Vec3::new(12.0, 6.0, 6.0), &mut t);
+    // The slab between, around the opening x 1..4.75, z 0.5..1.5.
+    for (a, b) in [
+        (Vec3::new(0.0, 2.8, 1.5), Vec3::new(12.0, 3.0, 6.0)),
+        (Vec3::new(0.0, 2.8, 0.0), Vec3::new(12.0, 3.0, 0.5)),
+        (Vec3::new(0.0, 2.8, 0.5), Vec3::new(1.0, 3.0, 1.5)),
+        (Vec3::new(4.75, 2.8, 0.5), Vec3::new(12.0, 3.0, 1.5)),
+    ] {
+        cuboid(a, b, &mut t);
+    }
+    for i in 0..15 {
+        let x = 1.0 + 0.25 * i as f32;
+        cuboid(
+            Vec3::new(x, 0.0, 0.5),
+            Vec3::new(x + 0.25, 0.2 * (i + 1) as f32, 1.5),
+            &mut t,
+        );
+    }
+    t
+}
+
+#[test]
+fn the_walk_climbs_the_stair_step_by_step() {
+    let tris = house_with_stair();
+    let path = interior_path(&tris, 3000, &InteriorParams::default()).unwrap();
+    assert_eq!(path.storeys.len(), 2, "{:?}", path.storeys);
+    assert_eq!((path.climbs, path.jumps), (1, 0));
+    let eye = 1.6;
+    let mut on_flight = 0;
+    for w in path.poses.windows(2) {
+        let (a, b) = (w[0].position, w[1].position);
+        // No jump: at most a riser over a tread's depth, per step walked.
+        assert!((b.y - a.y).abs() < 0.1, "{a} -> {b}");
+    }
+    for q in &path.poses {
+        let e = q.position;
+        if (1.0..4.75).contains(&e.x) && (0.55..1.45).contains(&e.z) {
+            on_flight += 1;
+            // Feet on the step under the eye (its cell may hold the next
+            // one too; the storeys' floors are found within 0.25 m), never
+            // inside it, nor above the flight at the upper floor's height.
+            let step = ((e.x - 1.0) / 0.25).floor();
+            let top = 0.2 * (step + 1.0);
+            let feet = e.y - eye;
+            assert!(
+                feet > top - 0.25 && feet < top + 0.5,
+                "feet {feet} over step top {top} at {e}"
+            );
+        }
+    }
+    assert!(
+        on_flight > 10,
+        "the walk goes up the flight ({on_flight} poses on it)"
+    );
+    assert!(
+        path.poses
+            .iter()
+            .any(|q| (q.position.y - (3.0 + eye)).abs() < 0.15)
+    );
+    // Deterministic.
+    assert_eq!(
+        interior_path(&tris, 3000, &InteriorParams::default()).unwrap(),
+        path
+    );
+}

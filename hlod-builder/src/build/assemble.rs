@@ -12,7 +12,7 @@ use engine::format::{NodeRecord, RepKind, RepMesh, RepRecord, SceneWriter};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
-use super::leaf::{Item, LeafGeometry, item_object, leaf_levels};
+use super::leaf::{Item, item_object, leaf_levels};
 use super::source::{CellGeometry, SceneSource};
 use super::{BuildParams, BuildStats, Report};
 use crate::cluster::TreeNode;
@@ -24,6 +24,9 @@ pub(super) struct Coarse {
     pub mesh: Mesh,
     pub error: f32,
 }
+
+/// What a leaf has besides its chain: its tree or MT, and its runs.
+type LeafExtras = (Option<crate::vdt::TreeRep>, Option<Vec<Run>>);
 
 /// LOD chains of meshes placed by several single-instance leaves, by mesh.
 pub(super) type Chains = Vec<(usize, Vec<Level>)>;
@@ -69,17 +72,20 @@ impl<W: Write + Seek> Assembly<'_, W> {
                     .flat_map(|&i| tree[i].items.iter().map(|&k| &items[k as usize])),
                 self.params,
             )?;
-            let made: Vec<LeafGeometry> = batch
+            let lod = (RepKind::Lod, params.compress_reps);
+            let made: Vec<(Encoded, LeafExtras)> = batch
                 .par_iter()
                 .map(|&i| {
-                    leaf_levels(&tree[i].items, items, &geo, params, &|m| {
-                        chain_of(chains, m)
-                    })
+                    let (levels, vdt, runs) =
+                        leaf_levels(&tree[i].items, items, &geo, params, &|m| {
+                            chain_of(chains, m)
+                        });
+                    (encode_chain(i as u32, levels, lod, 0.0), (vdt, runs))
                 })
                 .collect();
             drop(geo);
-            for (&i, (levels, vdt, runs)) in batch.iter().zip(made) {
-                self.leaf(i, levels, vdt, runs)?;
+            for (&i, (enc, (vdt, runs))) in batch.iter().zip(made) {
+                self.leaf(i, enc, vdt, runs)?;
             }
             (self.report)("leaf LODs", self.done, total);
         }
@@ -89,7 +95,7 @@ impl<W: Write + Seek> Assembly<'_, W> {
     fn leaf(
         &mut self,
         i: usize,
-        levels: Vec<Level>,
+        enc: Encoded,
         vdt: Option<crate::vdt::TreeRep>,
         runs: Option<Vec<Run>>,
     ) -> Result<(), FormatError> {
@@ -114,13 +120,7 @@ impl<W: Write + Seek> Assembly<'_, W> {
         } else {
             n.flags |= NodeRecord::FLAG_MERGED;
         }
-        let (mut recs, c) = write_chain(
-            &mut self.writer,
-            i as u32,
-            levels,
-            (RepKind::Lod, self.params.compress_reps),
-            0.0,
-        )?;
+        let (mut recs, c) = write_chain(&mut self.writer, enc)?;
         if let Some(t) = vdt {
             if t.kind == RepKind::Mt {
                 self.stats.mt_objects += 1;
@@ -167,20 +167,30 @@ impl<W: Write + Seek> Assembly<'_, W> {
                     })
                     .collect();
                 let params = self.params;
-                let made: Vec<(Mesh, f32, f32)> = inputs
+                let made: Vec<Encoded> = inputs
                     .into_par_iter()
-                    .map(|(merged, floor)| {
+                    .zip(batch)
+                    .map(|((merged, floor), &i)| {
                         let budget = ((merged.tri_count() as f32 * params.hlod_ratio) as usize)
                             .clamp(
                                 params.lod.min_tris.min(merged.tri_count()),
                                 params.hlod_tris,
                             );
-                        let (m, e) = hlod(&merged, budget);
-                        (m, floor, e)
+                        let (mesh, e) = hlod(&merged, budget);
+                        let level = Level {
+                            mesh,
+                            error: floor + e,
+                        };
+                        encode_chain(
+                            i as u32,
+                            vec![level],
+                            (RepKind::Hlod, params.compress_reps),
+                            floor,
+                        )
                     })
                     .collect();
-                for (&i, (mesh, floor, e)) in batch.iter().zip(made) {
-                    self.hlod_node(i, mesh, floor, floor + e)?;
+                for (&i, enc) in batch.iter().zip(made) {
+                    self.hlod_node(i, enc)?;
                 }
                 (self.report)("HLODs", self.done, total);
             }
@@ -188,20 +198,8 @@ impl<W: Write + Seek> Assembly<'_, W> {
         Ok(())
     }
 
-    fn hlod_node(
-        &mut self,
-        i: usize,
-        mesh: Mesh,
-        floor: f32,
-        error: f32,
-    ) -> Result<(), FormatError> {
-        let (recs, c) = write_chain(
-            &mut self.writer,
-            i as u32,
-            vec![Level { mesh, error }],
-            (RepKind::Hlod, self.params.compress_reps),
-            floor,
-        )?;
+    fn hlod_node(&mut self, i: usize, enc: Encoded) -> Result<(), FormatError> {
+        let (recs, c) = write_chain(&mut self.writer, enc)?;
         let children = &self.tree[i].children;
         let child_boxes: Vec<([f32; 3], [f32; 3])> = children
             .iter()
@@ -228,18 +226,27 @@ impl<W: Write + Seek> Assembly<'_, W> {
     }
 }
 
-/// Writes a node's levels (coarsest first), compressed or not; `floor` is an
-/// error every rep must exceed (the children's for an HLOD). Returns the
-/// records and the coarsest level.
-fn write_chain<W: Write + Seek>(
-    writer: &mut SceneWriter<W>,
+/// A node's levels encoded (coarsest first) and not yet written: the work
+/// of [`write_chain`] that needs no writer, done in the parallel part.
+pub(super) struct Encoded {
+    /// Records with everything but where the payload lies (offset, length,
+    /// checksum: filled in when written).
+    recs: Vec<RepRecord>,
+    payloads: Vec<Vec<u8>>,
+    coarse: Coarse,
+}
+
+/// Encodes a node's levels (coarsest first), compressed or not; `floor` is
+/// an error every rep must exceed (the children's for an HLOD).
+pub(super) fn encode_chain(
     node: u32,
     levels: Vec<Level>,
     (kind, compress): (RepKind, bool),
     floor: f32,
-) -> Result<(Vec<RepRecord>, Coarse), FormatError> {
+) -> Encoded {
     let n = levels.len();
     let mut recs = vec![RepRecord::default(); n];
+    let mut payloads = vec![Vec::new(); n];
     let mut below = if kind == RepKind::Hlod {
         Some(floor)
     } else {
@@ -255,12 +262,11 @@ fn write_chain<W: Write + Seek>(
             None => raw,
         };
         below = Some(error);
-        let payload = if compress {
+        payloads[i] = if compress {
             packed.encode_compressed(node, i as u32)
         } else {
             packed.encode(node, i as u32)
         };
-        let loc = writer.write_rep(&payload)?;
         let (bbox_min, bbox_max) = m.bounds().to_arrays();
         recs[i] = RepRecord {
             bbox_min,
@@ -269,22 +275,41 @@ fn write_chain<W: Write + Seek>(
             index: i as u16,
             kind: kind as u16,
             error,
-            checksum: loc.checksum,
-            offset: loc.offset,
-            len: loc.len,
             tri_count: m.tri_count() as u32,
             vertex_count: m.vertex_count() as u32,
-            aux: 0,
+            ..RepRecord::default()
         };
     }
     let first = levels.into_iter().next().expect("at least one level");
-    Ok((
-        recs.clone(),
-        Coarse {
+    let error = recs[0].error;
+    Encoded {
+        recs,
+        payloads,
+        coarse: Coarse {
             mesh: first.mesh,
-            error: recs[0].error,
+            error,
         },
-    ))
+    }
+}
+
+/// Writes an encoded chain, finest first (as it was encoded); returns the
+/// records (coarsest first) and the coarsest level.
+fn write_chain<W: Write + Seek>(
+    writer: &mut SceneWriter<W>,
+    enc: Encoded,
+) -> Result<(Vec<RepRecord>, Coarse), FormatError> {
+    let Encoded {
+        mut recs,
+        payloads,
+        coarse,
+    } = enc;
+    for (rec, payload) in recs.iter_mut().zip(&payloads).rev() {
+        let loc = writer.write_rep(payload)?;
+        rec.checksum = loc.checksum;
+        rec.offset = loc.offset;
+        rec.len = loc.len;
+    }
+    Ok((recs, coarse))
 }
 
 /// Box and colour of a node from its reps and children.

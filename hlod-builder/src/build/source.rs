@@ -10,6 +10,7 @@ use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 use engine::FormatError;
+use rayon::prelude::*;
 
 use super::BuildParams;
 use super::leaf::{Item, transformed_bounds};
@@ -144,22 +145,32 @@ impl<'a> CellGeometry<'a> {
         items: impl IntoIterator<Item = &'a Item>,
         params: &BuildParams,
     ) -> Result<Self, FormatError> {
-        let mut g = CellGeometry::default();
+        let mut meshes = Vec::new();
+        let mut trees = Vec::new();
         let mut chunk_objects: BTreeMap<u32, Vec<u32>> = BTreeMap::new();
         for item in items {
             match *item {
-                Item::Instance { mesh, .. } => {
-                    if let std::collections::btree_map::Entry::Vacant(e) = g.meshes.entry(mesh) {
-                        e.insert(src.mesh(mesh)?);
-                    }
-                }
+                Item::Instance { mesh, .. } => meshes.push(mesh),
                 Item::Chunk { object, chunk } => {
                     chunk_objects.entry(object).or_default().push(chunk);
                 }
-                Item::Tree { object, .. } => {
-                    g.trees.insert(object, world_mesh(src, object)?);
-                }
+                Item::Tree { object, .. } => trees.push(object),
             }
+        }
+        meshes.sort_unstable();
+        meshes.dedup();
+        // Read and decoded in parallel; the first error in order is the one
+        // reported, whatever the threads' timing.
+        let loaded: Vec<Result<Cow<'a, Mesh>, FormatError>> =
+            meshes.par_iter().map(|&m| src.mesh(m)).collect();
+        let mut g = CellGeometry::default();
+        for (m, mesh) in meshes.into_iter().zip(loaded) {
+            g.meshes.insert(m, mesh?);
+        }
+        let worlds: Vec<Result<Mesh, FormatError>> =
+            trees.par_iter().map(|&o| world_mesh(src, o)).collect();
+        for (o, mesh) in trees.into_iter().zip(worlds) {
+            g.trees.insert(o, mesh?);
         }
         for (object, wanted) in chunk_objects {
             for (k, chunk) in chunks_of(src, object, params)?.into_iter().enumerate() {

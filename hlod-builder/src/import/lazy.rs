@@ -221,13 +221,7 @@ fn buffers(
                 }
             }
         };
-        if data.len() < buf.byte_length && !(buf.is_fallback() && data.len() == 0) {
-            return Err(format!(
-                "buffers[{i}] has {} bytes, declares {} (truncated file?)",
-                data.len(),
-                buf.byte_length
-            ));
-        }
+        super::check_buffer_length(i, buf, data.len())?;
         out.push(data);
     }
     Ok(out)

@@ -353,16 +353,22 @@ pub(super) fn load_buffers(
                 }
             }
         };
-        if (data.len() as u64) < buf.byte_length && !(buf.is_fallback() && data.is_empty()) {
-            return Err(format!(
-                "buffers[{i}] has {} bytes, declares {} (truncated file?)",
-                data.len(),
-                buf.byte_length
-            ));
-        }
+        check_buffer_length(i, buf, data.len() as u64)?;
         out.push(data);
     }
     Ok(out)
+}
+
+/// Buffer `i` holds at least the bytes it declares (a fallback buffer of
+/// EXT_meshopt_compression may hold none).
+pub(super) fn check_buffer_length(i: usize, buf: &doc::Buffer, len: u64) -> Result<(), String> {
+    if len < buf.byte_length && !(buf.is_fallback() && len == 0) {
+        return Err(format!(
+            "buffers[{i}] has {len} bytes, declares {} (truncated file?)",
+            buf.byte_length
+        ));
+    }
+    Ok(())
 }
 
 /// The first `len` bytes of an external buffer file (what the buffer

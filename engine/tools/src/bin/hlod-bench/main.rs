@@ -225,8 +225,8 @@ fn run(a: Args) -> Result<()> {
         let path = engine::interior::interior_path(&tris, a.frames, &p)
             .with_context(|| format!("{scene_name}: interior path"))?;
         println!(
-            "interior path: storeys at {:?}, walkable cells {:?}, {} jumps between storeys",
-            path.storeys, path.cells, path.jumps
+            "interior path: storeys at {:?}, walkable cells {:?}, {} climbs up stairs, {} jumps between storeys",
+            path.storeys, path.cells, path.climbs, path.jumps
         );
         Some(path.poses)
     } else {
