@@ -348,13 +348,19 @@ pub fn interior_path(
         points.push(at(cur));
         let budget = (per as f32 * p.step) * (k + 1) as f32;
         let mut length = path_length(&points);
-        while length < budget {
+        // To random cells until this storey's share of the frames is walked
+        // (a route is cut there, so that every storey gets its share).
+        'walk: while length < budget {
             let target = region[rng.below(region.len())];
             let route = bfs(&g, &free, cur, target);
             for &i in route.iter().skip(1) {
                 let q = at(i);
                 length += q.distance(*points.last().expect("a point"));
                 points.push(q);
+                cur = i;
+                if length >= budget {
+                    break 'walk;
+                }
             }
             cur = target;
         }
@@ -377,12 +383,9 @@ pub fn interior_path(
             }
         }
         if let Some((nf, nfree, nfloor)) = walk.iter().find(|w| w.0 > *f) {
-            let up = region
-                .iter()
-                .copied()
-                .find(|&i| !nfloor[i] && near_free(&g, nfree, i));
-            if let Some(i) = up {
-                let route = bfs(&g, &free, cur, i);
+            // The nearest such opening along the floor.
+            let route = route_to(&g, &free, cur, |i| !nfloor[i] && near_free(&g, nfree, i));
+            if let Some(&i) = route.last() {
                 points.extend(route.iter().skip(1).map(|&c| at(c)));
                 points.push(at(i) + Vec3::Y * (nf - f));
                 climbed = Some(i);
@@ -398,9 +401,63 @@ pub fn interior_path(
 pub fn scene_triangles<S: crate::io::ByteSource>(
     scene: &crate::format::SceneFile<S>,
 ) -> Result<Vec<[Vec3; 3]>, crate::format::FormatError> {
+    leaf_triangles(scene, |_, _| true)
+}
+
+/// The triangles a walk must go around: [`scene_triangles`] without those
+/// of the objects [`walk_through`] names (from the scene's object section;
+/// a scene without one keeps all). Also returns how many objects were left
+/// out.
+pub fn obstacle_triangles<S: crate::io::ByteSource>(
+    scene: &crate::format::SceneFile<S>,
+) -> Result<(Vec<[Vec3; 3]>, usize), crate::format::FormatError> {
+    let table = scene.read_objects()?;
+    let skel = scene.skeleton();
+    let mut verdict: Vec<Option<bool>> = vec![None; table.len()];
+    let mut left_out = 0;
+    let tris = leaf_triangles(scene, |node, tri| {
+        let Some(o) = table.object_at(skel, node, tri) else {
+            return true;
+        };
+        let Some(v) = verdict.get_mut(o as usize) else {
+            return true;
+        };
+        let pass = *v.get_or_insert_with(|| {
+            let through = table.info(o).is_some_and(walk_through);
+            left_out += usize::from(through);
+            through
+        });
+        !pass
+    })?;
+    Ok((tris, left_out))
+}
+
+/// Whether an object, by the class its name starts with (as IFC exporters
+/// name nodes), does not stand in a walk's way: an opening's void
+/// (`IfcOpeningElement`, which some exporters write as a solid box in
+/// every door and window hole), a room's volume (`IfcSpace`), or a door
+/// (exported shut; the walk opens it).
+pub fn walk_through(info: &str) -> bool {
+    let Ok(v) = serde_json::from_str::<serde_json::Value>(info) else {
+        return false;
+    };
+    let name = v.get("name").and_then(|n| n.as_str()).unwrap_or("");
+    ["IfcOpeningElement", "IfcSpace", "IfcDoor"]
+        .iter()
+        .any(|c| {
+            name.strip_prefix(c)
+                .is_some_and(|rest| !rest.starts_with(|ch: char| ch.is_alphanumeric()))
+        })
+}
+
+/// The finest static reps' triangles for which `keep(leaf, triangle)`.
+fn leaf_triangles<S: crate::io::ByteSource>(
+    scene: &crate::format::SceneFile<S>,
+    mut keep: impl FnMut(u32, u32) -> bool,
+) -> Result<Vec<[Vec3; 3]>, crate::format::FormatError> {
     let s = scene.skeleton();
     let mut out = Vec::new();
-    for n in s.nodes.iter().filter(|n| n.is_leaf()) {
+    for (i, n) in s.nodes.iter().enumerate().filter(|(_, n)| n.is_leaf()) {
         let finest = (n.first_rep..n.first_rep + n.rep_count)
             .rev()
             .find(|&r| !s.reps[r as usize].is_paged());
@@ -411,11 +468,11 @@ pub fn scene_triangles<S: crate::io::ByteSource>(
             .iter()
             .map(|v| Vec3::from(m.position(v)))
             .collect();
-        out.extend(
-            m.indices
-                .chunks_exact(3)
-                .map(|t| [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]]),
-        );
+        for (k, t) in m.indices.chunks_exact(3).enumerate() {
+            if keep(i as u32, k as u32) {
+                out.push([pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]]);
+            }
+        }
     }
     Ok(out)
 }
@@ -489,6 +546,31 @@ fn flood(g: &Grid, free: &[bool], s: usize, seen: &mut [bool]) -> Vec<usize> {
         }
     }
     region
+}
+
+/// A shortest 4-connected route through `free` cells from `a` to the
+/// nearest cell where `goal` holds (empty when none is reachable).
+fn route_to(g: &Grid, free: &[bool], a: usize, goal: impl Fn(usize) -> bool) -> Vec<usize> {
+    let mut prev = vec![usize::MAX; free.len()];
+    let mut q = VecDeque::from([a]);
+    prev[a] = a;
+    while let Some(i) = q.pop_front() {
+        if goal(i) {
+            let mut route = vec![i];
+            while *route.last().expect("a cell") != a {
+                route.push(prev[*route.last().expect("a cell")]);
+            }
+            route.reverse();
+            return route;
+        }
+        for n in neighbours(g, i) {
+            if free[n] && prev[n] == usize::MAX {
+                prev[n] = i;
+                q.push_back(n);
+            }
+        }
+    }
+    Vec::new()
 }
 
 /// A shortest 4-connected route from `a` to `b` through `free` cells

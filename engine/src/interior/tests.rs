@@ -216,3 +216,19 @@ fn the_walk_climbs_the_stair_step_by_step() {
         path
     );
 }
+
+#[test]
+fn openings_spaces_and_doors_are_walked_through() {
+    for (info, through) in [
+        (r#"{"name":"IfcDoor:Single-Flush:1234"}"#, true),
+        (r#"{"mesh":3,"name":"IfcOpeningElement::0ONCKt8ie"}"#, true),
+        (r#"{"name":"IfcSpace:Kitchen"}"#, true),
+        (r#"{"name":"IfcDoorStyle"}"#, false),
+        (r#"{"name":"IfcWall:Basic:200"}"#, false),
+        (r#"{"mesh_name":"IfcDoor:x","name":"IfcWindow:y"}"#, false),
+        ("not json", false),
+        ("{}", false),
+    ] {
+        assert_eq!(walk_through(info), through, "{info}");
+    }
+}

@@ -217,7 +217,9 @@ fn run(a: Args) -> Result<()> {
         .with_context(|| scene_name.clone())?;
     let skel = Arc::new(scene.skeleton().clone());
     let interior = if a.path.is_none() && a.path_kind == "interior" {
-        let tris = engine::interior::scene_triangles(&scene).with_context(|| scene_name.clone())?;
+        // Openings' voids, spaces and doors are walked through.
+        let (tris, passable) =
+            engine::interior::obstacle_triangles(&scene).with_context(|| scene_name.clone())?;
         let p = engine::interior::InteriorParams {
             seed: a.seed,
             ..Default::default()
@@ -225,7 +227,7 @@ fn run(a: Args) -> Result<()> {
         let path = engine::interior::interior_path(&tris, a.frames, &p)
             .with_context(|| format!("{scene_name}: interior path"))?;
         println!(
-            "interior path: storeys at {:?}, walkable cells {:?}, {} climbs up stairs, {} jumps between storeys",
+            "interior path: storeys at {:?}, walkable cells {:?}, {} climbs up stairs, {} jumps between storeys ({passable} openings, spaces and doors walked through)",
             path.storeys, path.cells, path.climbs, path.jumps
         );
         Some(path.poses)
