@@ -576,29 +576,8 @@ fn route_to(g: &Grid, free: &[bool], a: usize, goal: impl Fn(usize) -> bool) -> 
 /// A shortest 4-connected route from `a` to `b` through `free` cells
 /// (`[a]` when there is none).
 fn bfs(g: &Grid, free: &[bool], a: usize, b: usize) -> Vec<usize> {
-    let mut prev = vec![usize::MAX; free.len()];
-    let mut q = VecDeque::from([a]);
-    prev[a] = a;
-    while let Some(i) = q.pop_front() {
-        if i == b {
-            break;
-        }
-        for n in neighbours(g, i) {
-            if free[n] && prev[n] == usize::MAX {
-                prev[n] = i;
-                q.push_back(n);
-            }
-        }
-    }
-    if prev[b] == usize::MAX {
-        return vec![a];
-    }
-    let mut route = vec![b];
-    while *route.last().expect("a cell") != a {
-        route.push(prev[*route.last().expect("a cell")]);
-    }
-    route.reverse();
-    route
+    let route = route_to(g, free, a, |i| i == b);
+    if route.is_empty() { vec![a] } else { route }
 }
 
 fn path_length(p: &[Vec3]) -> f32 {
