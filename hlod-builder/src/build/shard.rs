@@ -283,12 +283,7 @@ pub fn build_shard_file(
     drop(w);
     out.commit()?;
     stats.nodes = made.len() as u64;
-    stats.file_bytes = std::fs::metadata(output)
-        .map_err(|source| BuildError::Io {
-            path: output.to_path_buf(),
-            source,
-        })?
-        .len();
+    stats.file_bytes = file_len(output)?;
     stats.peak_heap = crate::heap::peak();
     Ok(stats)
 }
@@ -541,12 +536,17 @@ pub fn merge_files(
     out.commit()?;
     super::skeleton_stats(&mut stats, &skeleton, objects.len());
     stats.cells = u64::from(n);
-    stats.file_bytes = std::fs::metadata(output)
-        .map_err(|source| BuildError::Io {
-            path: output.to_path_buf(),
-            source,
-        })?
-        .len();
+    stats.file_bytes = file_len(output)?;
     stats.seconds = t0.elapsed().as_secs_f64();
     Ok(stats)
+}
+
+/// The size of a file just written.
+fn file_len(path: &Path) -> Result<u64, BuildError> {
+    std::fs::metadata(path)
+        .map(|m| m.len())
+        .map_err(|source| BuildError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
 }
