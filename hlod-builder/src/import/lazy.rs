@@ -62,13 +62,7 @@ pub fn open(path: &Path) -> Result<Opened, ImportError> {
         path: path.to_path_buf(),
         what,
     };
-    let meta = std::fs::metadata(path).map_err(read_err)?;
-    if !meta.is_file() {
-        return Err(read_err(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "not a regular file (a directory, pipe or device): save the model to a file first",
-        )));
-    }
+    let meta = super::regular_file(path)?;
     let file = std::fs::File::open(path).map_err(read_err)?;
     let size = meta.len();
     let mut head = [0u8; 12];

@@ -166,7 +166,18 @@ pub fn load(path: &Path) -> Result<Imported, ImportError> {
         path: path.to_path_buf(),
         source,
     };
-    // A pipe or a device (`/dev/zero`) has no length to bound the read by.
+    regular_file(path)?;
+    let bytes = engine::limits::read_bounded(path, max_input_bytes()).map_err(read_err)?;
+    load_slice(&bytes, path.parent().unwrap_or(Path::new(".")), path)
+}
+
+/// The metadata of `path`, a regular file (a pipe or a device such as
+/// `/dev/zero` has no length to bound the read by; a directory none at all).
+pub(super) fn regular_file(path: &Path) -> Result<std::fs::Metadata, ImportError> {
+    let read_err = |source| ImportError::Read {
+        path: path.to_path_buf(),
+        source,
+    };
     let meta = std::fs::metadata(path).map_err(read_err)?;
     if !meta.is_file() {
         return Err(read_err(std::io::Error::new(
@@ -174,8 +185,7 @@ pub fn load(path: &Path) -> Result<Imported, ImportError> {
             "not a regular file (a directory, pipe or device): save the model to a file first",
         )));
     }
-    let bytes = engine::limits::read_bounded(path, max_input_bytes()).map_err(read_err)?;
-    load_slice(&bytes, path.parent().unwrap_or(Path::new(".")), path)
+    Ok(meta)
 }
 
 /// Loads glTF or GLB bytes; external buffers are resolved against `base_dir`,
