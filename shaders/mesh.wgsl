@@ -1,5 +1,8 @@
 // Object-rep shading: quantised positions expanded over each rep's box,
-// per-vertex colour (or a debug tint), headlight Lambert.
+// per-vertex colour (or a debug tint), headlight Lambert. Two passes: the
+// opaque pass (fs_main) draws the fragments whose colour is opaque and
+// writes depth; the translucent pass (fs_translucent, alpha blending, no
+// depth write) draws the others (glass, translucent materials) over it.
 //
 // Vertex layout (16 bytes, see engine::format::rep::PackedVertex):
 //   location 0: position unorm16x4 over the rep's quantisation box
@@ -37,7 +40,7 @@ struct VsOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
-    @location(2) color: vec3<f32>,
+    @location(2) color: vec4<f32>,
     // x: fade progress, y: direction (see DrawData).
     @location(3) @interpolate(flat) fade: vec2<f32>,
 };
@@ -58,13 +61,16 @@ fn vs_main(v: VsIn, @builtin(instance_index) draw: u32) -> VsOut {
     out.clip = globals.view_proj * vec4<f32>(world, 1.0);
     out.world = world;
     out.normal = v.normal.xyz;
-    out.color = mix(v.color.rgb, d.tint.rgb, d.tint.a);
+    out.color = vec4<f32>(mix(v.color.rgb, d.tint.rgb, d.tint.a), v.color.a);
     out.fade = vec2<f32>(d.quant_min.w, d.quant_extent.w);
     return out;
 }
 
-@fragment
-fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
+// A fragment at least this opaque is drawn by the opaque pass.
+const OPAQUE: f32 = 0.995;
+
+// The headlit colour of a fragment, with its alpha.
+fn shade(in: VsOut) -> vec4<f32> {
     // Derivatives in uniform control flow; the face normal stands in for a
     // zero vertex normal.
     let face = cross(dpdx(in.world), dpdy(in.world));
@@ -72,14 +78,32 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
     let to_eye = normalize(globals.eye.xyz - in.world);
     // Headlight: two-sided, so that open CAD surfaces read from both sides.
     let lambert = abs(dot(n, to_eye));
-    let shade = 0.2 + 0.8 * lambert;
-    // Screen-door fade: a rep fading in by t keeps the pixels whose
-    // threshold is below t, one fading out the others.
+    return vec4<f32>(in.color.rgb * (0.2 + 0.8 * lambert), in.color.a);
+}
+
+// Screen-door fade: a rep fading in by t keeps the pixels whose threshold
+// is below t, one fading out the others.
+fn faded_out(in: VsOut) -> bool {
     let threshold = dither_threshold(vec2<u32>(in.clip.xy));
     let fading_in = in.fade.y > 0.5 && in.fade.y < 1.5;
     let fading_out = in.fade.y > 1.5;
-    if (fading_in && threshold >= in.fade.x) || (fading_out && threshold < in.fade.x) {
+    return (fading_in && threshold >= in.fade.x) || (fading_out && threshold < in.fade.x);
+}
+
+@fragment
+fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
+    let c = shade(in);
+    if faded_out(in) || in.color.a < OPAQUE {
         discard;
     }
-    return vec4<f32>(in.color * shade, 1.0);
+    return vec4<f32>(c.rgb, 1.0);
+}
+
+@fragment
+fn fs_translucent(in: VsOut) -> @location(0) vec4<f32> {
+    let c = shade(in);
+    if faded_out(in) || in.color.a >= OPAQUE {
+        discard;
+    }
+    return c;
 }

@@ -318,7 +318,16 @@ pub fn interior_path(
             .filter(|&i| walk[*s].1[i])
             .map(|i| region_containing(&g, &walk[*s].1, i))
             .filter(|r| r.len() >= 16);
-        let region = own.as_ref().unwrap_or(largest);
+        // Not arrived by a stair: the largest region, unless no stair goes
+        // up from it and one goes up from another region of this storey
+        // (a stair hall beside the flats).
+        let start_region = match (&own, regions.get(k + 1)) {
+            (None, Some((ns, nf, _))) => {
+                climbing_region(tris, &g, (*f, &walk[*s].1), (*nf, &walk[*ns].1), largest, p)
+            }
+            _ => None,
+        };
+        let region = own.as_ref().or(start_region.as_ref()).unwrap_or(largest);
         out.storeys.push(*f);
         out.cells.push(region.len());
         let y = f + p.eye_height;
@@ -375,7 +384,7 @@ pub fn interior_path(
                 floor: *nf,
                 free: &walk[*ns].1,
             };
-            if let Some(c) = stairs::climb(tris, &g, lo, hi, cur, p.eye_height) {
+            if let Some(c) = stairs::climb(tris, &g, lo, hi, &[cur], p.eye_height) {
                 points.extend(c.points);
                 climbed = Some(c.end);
                 out.climbs += 1;
@@ -394,6 +403,36 @@ pub fn interior_path(
     }
     out.poses = follow(&points, frames, p);
     Ok(out)
+}
+
+/// The region of a storey (`(floor height, free cells)`) to walk before
+/// climbing to the storey `up`: `None` when a stair goes up from its
+/// `largest` region, or when none goes up from any region; otherwise the
+/// region from which the shortest climb starts.
+fn climbing_region(
+    tris: &[[Vec3; 3]],
+    g: &Grid,
+    (floor, free): (f32, &[bool]),
+    up: (f32, &[bool]),
+    largest: &[usize],
+    p: &InteriorParams,
+) -> Option<Vec<usize>> {
+    let hi = stairs::Storey {
+        floor: up.0,
+        free: up.1,
+    };
+    let mut mask = vec![false; free.len()];
+    for &i in largest {
+        mask[i] = true;
+    }
+    let lo = stairs::Storey { floor, free: &mask };
+    if stairs::climb(tris, g, lo, hi, largest, p.eye_height).is_some() {
+        return None;
+    }
+    let all: Vec<usize> = (0..free.len()).filter(|&i| free[i]).collect();
+    let lo = stairs::Storey { floor, free };
+    let c = stairs::climb(tris, g, lo, hi, &all, p.eye_height)?;
+    Some(region_containing(g, free, c.start)).filter(|r| r.len() >= 16)
 }
 
 /// The triangles of a scene at full resolution: every leaf's finest static

@@ -67,6 +67,10 @@ pub struct BuildParams {
     /// Mesh rep payloads through meshopt's vertex and index codecs (format
     /// version 3), or raw (for comparison).
     pub compress_reps: bool,
+    /// Keep the objects of IFC exports that stand for no visible part:
+    /// openings' voids and spaces' volumes ([`crate::import::ifc_void`]).
+    /// Left out by default (counted in [`BuildStats::hidden_objects`]).
+    pub ifc_voids: bool,
 }
 
 impl Default for BuildParams {
@@ -84,6 +88,7 @@ impl Default for BuildParams {
             mt: crate::mt::MtRepParams::default(),
             spatial_layout: true,
             compress_reps: true,
+            ifc_voids: false,
         }
     }
 }
@@ -164,6 +169,10 @@ pub struct BuildStats {
     pub nodes: u64,
     pub leaves: u64,
     pub chunked_objects: u64,
+    /// Objects left out as IFC voids and spaces (see
+    /// [`BuildParams::ifc_voids`]), and their triangles.
+    pub hidden_objects: u64,
+    pub hidden_triangles: u64,
     /// Objects whose finest rep is a view-dependence tree.
     pub vdt_objects: u64,
     /// Objects whose finest rep is a Multi-Triangulation.
@@ -172,7 +181,8 @@ pub struct BuildStats {
     pub reps: u64,
     /// Source triangles after instancing.
     pub input_triangles: u64,
-    /// Of those, the non-degenerate ones (what the finest reps hold).
+    /// Of those, the non-degenerate ones of the objects kept (what the
+    /// finest reps hold).
     pub usable_triangles: u64,
     pub output_triangles: u64,
     pub skeleton_bytes: u64,
@@ -393,6 +403,9 @@ fn prepare<S: SceneSource>(
     // 1. Items, from sizes and boxes (split and tree objects loaded once).
     let made = source::make_items(src, params)?;
     stats.chunked_objects = made.chunked_objects;
+    stats.hidden_objects = made.hidden_objects;
+    stats.hidden_triangles = made.hidden_triangles;
+    stats.usable_triangles -= made.hidden_triangles;
     // 2. Topology.
     (opts.report)("clustering", 0, 0);
     let tree = cluster(&made.cluster, params.branching, params.leaf_tris);

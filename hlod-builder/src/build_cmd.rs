@@ -74,6 +74,11 @@ pub(crate) struct BuildArgs {
     /// independent job; `hlod-build merge` joins the N files).
     #[arg(long)]
     shard: Option<hlod_builder::build::shard::ShardSpec>,
+    /// Keep the objects of IFC exports that stand for no visible part
+    /// (openings' voids, spaces' volumes: `IfcOpeningElement*`,
+    /// `IfcSpace*` by name), which are left out by default.
+    #[arg(long)]
+    ifc_voids: bool,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
@@ -111,6 +116,7 @@ fn params_of(a: &BuildArgs) -> Result<BuildParams> {
             l => anyhow::bail!("--layout {l:?}: use spatial or build"),
         },
         compress_reps: !a.raw_reps,
+        ifc_voids: a.ifc_voids,
     })
 }
 
@@ -180,8 +186,14 @@ pub(crate) fn build(a: BuildArgs) -> Result<()> {
         stats.chunked_objects,
         stats.vdt_objects,
         stats.mt_objects,
-        stats.input_triangles - stats.usable_triangles
+        stats.input_triangles - stats.usable_triangles - stats.hidden_triangles
     );
+    if stats.hidden_objects > 0 {
+        println!(
+            "left out {} IFC opening voids and spaces ({} triangles; --ifc-voids keeps them)",
+            stats.hidden_objects, stats.hidden_triangles
+        );
+    }
     if let Some(p) = stats.memory_plan {
         println!(
             "memory: limit {}, {} for the objects and graph, {} cell(s) of at most {} input triangles, leaves {} at a time; peak heap {}",

@@ -15,6 +15,8 @@ pub fn stats_of<S: ByteSource>(scene: &SceneFile<S>) -> BuildStats {
         nodes: s.nodes.len() as u64,
         leaves: s.nodes.iter().filter(|n| n.is_leaf()).count() as u64,
         chunked_objects: 0,
+        hidden_objects: 0,
+        hidden_triangles: 0,
         vdt_objects: s.reps.iter().filter(|r| r.is_vdt()).count() as u64,
         mt_objects: s.reps.iter().filter(|r| r.is_mt()).count() as u64,
         height: s.height(),

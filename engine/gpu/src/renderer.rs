@@ -116,6 +116,9 @@ struct Slot {
     quant_min: [f32; 3],
     quant_scale: [f32; 3],
     last_frame: u32,
+    /// Some vertex colour is translucent: the rep is drawn by the
+    /// translucent pass too.
+    translucent: bool,
 }
 
 #[derive(Debug)]
@@ -134,6 +137,8 @@ pub struct GpuRenderer {
     ctx: GpuContext,
     cfg: RendererConfig,
     pipeline: wgpu::RenderPipeline,
+    /// The translucent pass's pipeline (alpha blending, no depth write).
+    blend_pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
     globals: wgpu::Buffer,
     draw_buf: wgpu::Buffer,
@@ -201,7 +206,8 @@ impl GpuRenderer {
                 layout_entry(1, wgpu::BufferBindingType::Storage { read_only: true }),
             ],
         });
-        let pipeline = create_pipeline(device, &layout, cfg.color_format);
+        let pipeline = create_pipeline(device, &layout, cfg.color_format, false);
+        let blend_pipeline = create_pipeline(device, &layout, cfg.color_format, true);
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("globals"),
             size: size_of::<Globals>() as u64,
@@ -219,6 +225,7 @@ impl GpuRenderer {
             ctx,
             cfg,
             pipeline,
+            blend_pipeline,
             layout,
             globals,
             draw_buf,
@@ -393,6 +400,9 @@ impl GpuRenderer {
         };
         let buf = &self.chunks[alloc.chunk as usize];
         self.ctx.queue.write_buffer(buf, alloc.offset, body);
+        // The alpha byte ends each packed vertex.
+        let vs = size_of::<PackedVertex>();
+        let translucent = body[..vbytes].chunks_exact(vs).any(|v| v[vs - 1] < u8::MAX);
         self.slots.insert(
             rep,
             Slot {
@@ -403,6 +413,7 @@ impl GpuRenderer {
                 quant_min: h.quant_min,
                 quant_scale: h.quant_scale,
                 last_frame: self.frame_no,
+                translucent,
             },
         );
         self.stats.uploads += 1;
@@ -506,35 +517,58 @@ impl GpuRenderer {
                 multiview_mask: None,
             });
             if self.view.is_some() && !draws.is_empty() {
-                pass.set_pipeline(&self.pipeline);
                 pass.set_bind_group(0, &self.bind_group, &[]);
-                let mut bound = None;
-                for (k, (_, s)) in draws.iter().enumerate() {
-                    let key = (s.alloc.chunk, s.index_u32);
-                    if bound != Some(key) {
-                        let buf = &self.chunks[s.alloc.chunk as usize];
-                        pass.set_vertex_buffer(0, buf.slice(..));
-                        let fmt = if s.index_u32 {
-                            wgpu::IndexFormat::Uint32
-                        } else {
-                            wgpu::IndexFormat::Uint16
-                        };
-                        pass.set_index_buffer(buf.slice(..), fmt);
-                        bound = Some(key);
-                    }
-                    let isize = if s.index_u32 { 4 } else { 2 };
-                    let first = (s.alloc.offset + u64::from(s.vertex_count) * 16) / isize as u64;
-                    let base = (s.alloc.offset / 16) as i32;
-                    pass.draw_indexed(
-                        first as u32..first as u32 + s.index_count,
-                        base,
-                        k as u32..k as u32 + 1,
-                    );
+                // The opaque pass, then the translucent pass over it, both
+                // in the same (deterministic) order; the translucent pass
+                // draws only the reps with a translucent colour.
+                pass.set_pipeline(&self.pipeline);
+                self.stats.draws += self.issue(&mut pass, &draws, false);
+                if draws.iter().any(|(_, s)| s.translucent) {
+                    pass.set_pipeline(&self.blend_pipeline);
+                    self.stats.draws += self.issue(&mut pass, &draws, true);
                 }
-                self.stats.draws += draws.len() as u64;
             }
         }
         self.ctx.queue.submit([enc.finish()]);
+    }
+
+    /// Issues `draws` (the translucent ones only, with `translucent`) into
+    /// `pass`, whose pipeline is set; returns how many.
+    fn issue(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        draws: &[(usize, Slot)],
+        translucent: bool,
+    ) -> u64 {
+        let mut issued = 0;
+        let mut bound = None;
+        for (k, (_, s)) in draws.iter().enumerate() {
+            if translucent && !s.translucent {
+                continue;
+            }
+            issued += 1;
+            let key = (s.alloc.chunk, s.index_u32);
+            if bound != Some(key) {
+                let buf = &self.chunks[s.alloc.chunk as usize];
+                pass.set_vertex_buffer(0, buf.slice(..));
+                let fmt = if s.index_u32 {
+                    wgpu::IndexFormat::Uint32
+                } else {
+                    wgpu::IndexFormat::Uint16
+                };
+                pass.set_index_buffer(buf.slice(..), fmt);
+                bound = Some(key);
+            }
+            let isize = if s.index_u32 { 4 } else { 2 };
+            let first = (s.alloc.offset + u64::from(s.vertex_count) * 16) / isize as u64;
+            let base = (s.alloc.offset / 16) as i32;
+            pass.draw_indexed(
+                first as u32..first as u32 + s.index_count,
+                base,
+                k as u32..k as u32 + 1,
+            );
+        }
+        issued
     }
 
     fn read_back(&mut self) -> Option<RgbaImage> {

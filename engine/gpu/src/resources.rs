@@ -148,10 +148,13 @@ pub(crate) fn bind(
     })
 }
 
+/// The opaque pipeline, or with `translucent` the one that blends the
+/// translucent fragments over the opaque ones (depth tested, not written).
 pub(crate) fn create_pipeline(
     device: &wgpu::Device,
     layout: &wgpu::BindGroupLayout,
     color_format: wgpu::TextureFormat,
+    translucent: bool,
 ) -> wgpu::RenderPipeline {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("mesh.wgsl"),
@@ -164,7 +167,11 @@ pub(crate) fn create_pipeline(
     });
     let attrs = wgpu::vertex_attr_array![0 => Unorm16x4, 1 => Snorm8x4, 2 => Unorm8x4];
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("mesh"),
+        label: Some(if translucent {
+            "mesh translucent"
+        } else {
+            "mesh"
+        }),
         layout: Some(&pl),
         vertex: wgpu::VertexState {
             module: &module,
@@ -183,7 +190,7 @@ pub(crate) fn create_pipeline(
         },
         depth_stencil: Some(wgpu::DepthStencilState {
             format: DEPTH_FORMAT,
-            depth_write_enabled: Some(true),
+            depth_write_enabled: Some(!translucent),
             depth_compare: Some(wgpu::CompareFunction::Greater),
             stencil: Default::default(),
             bias: Default::default(),
@@ -191,11 +198,15 @@ pub(crate) fn create_pipeline(
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
             module: &module,
-            entry_point: Some("fs_main"),
+            entry_point: Some(if translucent {
+                "fs_translucent"
+            } else {
+                "fs_main"
+            }),
             compilation_options: Default::default(),
             targets: &[Some(wgpu::ColorTargetState {
                 format: color_format,
-                blend: None,
+                blend: translucent.then_some(wgpu::BlendState::ALPHA_BLENDING),
                 write_mask: wgpu::ColorWrites::ALL,
             })],
         }),

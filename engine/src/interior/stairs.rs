@@ -32,6 +32,10 @@ const SLAB: f32 = 0.1;
 const KNEE: f32 = 0.5;
 /// ...to this above the eye.
 const CROWN: f32 = 0.2;
+/// How far beyond the lower region's ground plan a stair may reach: a
+/// flight and its landing (Schependomlaan's half-turn stairs put their
+/// landings about 2 m beyond the landing the walk stands on).
+const STAIR_REACH: f32 = 4.0;
 /// Cells with treads beyond which the search is not tried (a scene whose
 /// every surface between the floors is a candidate is not a building).
 const MAX_TREAD_CELLS: usize = 1 << 22;
@@ -45,27 +49,30 @@ pub(super) struct Storey<'a> {
 }
 
 /// A climb: points at eye height from the start cell's neighbour to the
-/// first free cell of the upper storey, and that cell.
+/// first free cell of the upper storey, the cell it started from and that
+/// cell.
 pub(super) struct Climb {
     pub points: Vec<Vec3>,
+    pub start: usize,
     pub end: usize,
 }
 
-/// The shortest climb from cell `from` of `lo` (a region) to a free cell
-/// of `hi` (a storey's free cells, any region) (`None` when no chain of
-/// treads joins them).
+/// The shortest climb from any of the cells `from` of `lo` (a region, or
+/// every region of a storey) to a free cell of `hi` (a storey's free
+/// cells, any region) (`None` when no chain of treads joins them).
 pub(super) fn climb(
     tris: &[[Vec3; 3]],
     g: &Grid,
     lo: Storey<'_>,
     hi: Storey<'_>,
-    from: usize,
+    from: &[usize],
     eye: f32,
 ) -> Option<Climb> {
-    // A stair up from the lower region lies in its ground plan (or within
-    // a metre of it).
+    // A stair up from the lower region starts in its ground plan and
+    // reaches at most [`STAIR_REACH`] beyond it (the landing of a
+    // half-turn stair lies a flight's length away).
     let a = region_box(g, lo.free)?;
-    let pad = (1.0 / g.cell).ceil() as usize;
+    let pad = (STAIR_REACH / g.cell).ceil() as usize;
     let within = (
         a.0.saturating_sub(pad),
         a.1 + pad,
@@ -87,10 +94,15 @@ pub(super) fn climb(
     };
     // Places: (cell, height key); the key is the height in centimetres.
     let key = |h: f32| (h * 100.0).round() as i32;
+    // Each start place is its own predecessor: a route ends there.
     let mut prev: HashMap<(usize, i32), (usize, i32)> = HashMap::new();
-    let start = (from, key(lo.floor));
-    prev.insert(start, start);
-    let mut queue = VecDeque::from([(from, lo.floor)]);
+    let mut queue = VecDeque::new();
+    for &c in from {
+        let start = (c, key(lo.floor));
+        if prev.insert(start, start).is_none() {
+            queue.push_back((c, lo.floor));
+        }
+    }
     let mut goal = None;
     while let Some((c, h)) = queue.pop_front() {
         if hi.free[c] && key(h) == key(hi.floor) {
@@ -122,10 +134,16 @@ pub(super) fn climb(
     }
     let goal = goal?;
     let mut route = vec![goal];
-    while *route.last().expect("a place") != start {
-        route.push(prev[route.last().expect("a place")]);
+    loop {
+        let at = *route.last().expect("a place");
+        let back = prev[&at];
+        if back == at {
+            break;
+        }
+        route.push(back);
     }
     route.reverse();
+    let start = route[0].0;
     let points = route
         .iter()
         .skip(1)
@@ -136,6 +154,7 @@ pub(super) fn climb(
         .collect();
     Some(Climb {
         points,
+        start,
         end: goal.0,
     })
 }

@@ -232,3 +232,37 @@ fn openings_spaces_and_doors_are_walked_through() {
         assert_eq!(walk_through(info), through, "{info}");
     }
 }
+
+#[test]
+fn a_walk_starts_in_the_stair_hall_when_the_largest_room_has_no_stair() {
+    // The ground floor of `house_with_stair` cut in two with no door: a
+    // stair hall (x < 4.9, the flight in it) and a larger room without a
+    // stair. The walk starts in the hall and climbs instead of jumping.
+    let mut tris = house_with_stair();
+    cuboid(
+        Vec3::new(4.9, 0.0, 0.0),
+        Vec3::new(5.1, 2.8, 6.0),
+        &mut tris,
+    );
+    cuboid(
+        Vec3::new(5.9, 0.0, 2.5),
+        Vec3::new(6.1, 2.8, 3.5),
+        &mut tris,
+    );
+    let path = interior_path(&tris, 3000, &InteriorParams::default()).unwrap();
+    assert_eq!((path.climbs, path.jumps), (1, 0));
+    let hall = path.cells[0];
+    // The hall is 4.9 x 6 m less its walls: under 470 cells of 0.25 m.
+    assert!(hall < 470, "walked {hall} cells on the ground floor");
+    let ground = |q: &Pose| q.position.y < 1.7;
+    assert!(
+        path.poses
+            .iter()
+            .filter(|q| ground(q))
+            .all(|q| q.position.x < 4.9),
+        "the ground-floor walk stays in the hall"
+    );
+    for w in path.poses.windows(2) {
+        assert!((w[1].position.y - w[0].position.y).abs() < 0.1);
+    }
+}

@@ -2,6 +2,7 @@
 //! least-recently-used order under a byte capacity that comes out of the
 //! footprint.
 
+use std::collections::BinaryHeap;
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -20,8 +21,9 @@ const ENTRY_BYTES: u64 = 64;
 
 type Tris = Arc<[[Vec3; 3]]>;
 
-/// The largest triangles of a raw rep payload, largest first (none from a
-/// payload that is not a raw mesh rep; indices out of range are skipped).
+/// The largest opaque triangles of a raw rep payload, largest first (none
+/// from a payload that is not a raw mesh rep; indices out of range and
+/// triangles with a translucent corner are skipped).
 pub fn occluder_triangles(payload: &[u8]) -> Vec<[Vec3; 3]> {
     let hs = size_of::<RepHeader>();
     if payload.len() < hs {
@@ -34,13 +36,18 @@ pub fn occluder_triangles(payload: &[u8]) -> Vec<[Vec3; 3]> {
     if h.magic != REP_MAGIC || payload.len() < hs + vc * vs + ic * isz {
         return Vec::new();
     }
-    let pos = |v: usize| -> Vec3 {
-        let pv: PackedVertex =
-            bytemuck::pod_read_unaligned(&payload[hs + v * vs..hs + v * vs + vs]);
-        Vec3::from_array(std::array::from_fn(|a| {
-            h.quant_min[a] + f32::from(pv.position[a]) * h.quant_scale[a]
-        }))
-    };
+    // Every vertex decoded once (a triangle would decode three), with
+    // whether it is opaque.
+    let pos: Vec<(Vec3, bool)> = payload[hs..hs + vc * vs]
+        .chunks_exact(vs)
+        .map(|b| {
+            let pv: PackedVertex = bytemuck::pod_read_unaligned(b);
+            let p = Vec3::from_array(std::array::from_fn(|a| {
+                h.quant_min[a] + f32::from(pv.position[a]) * h.quant_scale[a]
+            }));
+            (p, pv.color[3] == u8::MAX)
+        })
+        .collect();
     let ib = &payload[hs + vc * vs..];
     let index = |i: usize| -> usize {
         if isz == 2 {
@@ -51,23 +58,62 @@ pub fn occluder_triangles(payload: &[u8]) -> Vec<[Vec3; 3]> {
     };
     let diag = Vec3::from_array(h.quant_scale).length() * 65535.0;
     let min_area = MIN_AREA_SHARE * diag * diag;
-    let mut best: Vec<(f32, [Vec3; 3])> = Vec::new();
+    // The best MAX_TRIS by (larger area, earlier in the mesh), a heap whose
+    // top is the worst kept: the same triangles, in the same order, as a
+    // stable sort of all of them by area.
+    let mut best: BinaryHeap<Ranked> = BinaryHeap::with_capacity(MAX_TRIS + 1);
     for t in 0..ic / 3 {
         let v = [index(3 * t), index(3 * t + 1), index(3 * t + 2)];
         if v.iter().any(|&i| i >= vc) {
             continue;
         }
-        let p = v.map(pos);
+        // A translucent triangle (glass) hides nothing.
+        if v.iter().any(|&i| !pos[i].1) {
+            continue;
+        }
+        let p = v.map(|i| pos[i].0);
         let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
-        if area.is_finite() && area >= min_area {
-            best.push((area, p));
+        if !(area.is_finite() && area >= min_area) {
+            continue;
+        }
+        let r = Ranked { area, at: t, p };
+        if best.len() < MAX_TRIS {
+            best.push(r);
+        } else if best.peek().is_some_and(|w| r < *w) {
+            best.pop();
+            best.push(r);
         }
     }
-    // Largest first; ties by position in the mesh (stable sort).
-    best.sort_by(|a, b| b.0.total_cmp(&a.0));
-    best.truncate(MAX_TRIS);
-    best.into_iter().map(|(_, p)| p).collect()
+    best.into_sorted_vec().into_iter().map(|r| r.p).collect()
 }
+
+/// A candidate occluder, ordered best first: larger area, then earlier in
+/// the mesh.
+struct Ranked {
+    area: f32,
+    at: usize,
+    p: [Vec3; 3],
+}
+
+impl Ord for Ranked {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        o.area.total_cmp(&self.area).then(self.at.cmp(&o.at))
+    }
+}
+
+impl PartialOrd for Ranked {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+impl PartialEq for Ranked {
+    fn eq(&self, o: &Self) -> bool {
+        self.cmp(o).is_eq()
+    }
+}
+
+impl Eq for Ranked {}
 
 /// The occluder triangles of recently drawn reps.
 #[derive(Debug)]

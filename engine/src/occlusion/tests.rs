@@ -2,7 +2,7 @@ use super::*;
 use crate::testutil::quad;
 
 #[test]
-fn occluders_are_a_reps_largest_triangles() {
+fn occluders_are_a_reps_largest_opaque_triangles() {
     let big = quad([0.0, 0.0, 0.0], [10.0, 10.0, 0.0]).encode(0, 0);
     let t = occluder_triangles(&big);
     assert_eq!(t.len(), 2);
@@ -10,6 +10,12 @@ fn occluders_are_a_reps_largest_triangles() {
     // Not a raw mesh payload: nothing.
     assert!(occluder_triangles(&big[..40]).is_empty());
     assert!(occluder_triangles(b"REPZ and more bytes than a header holds, surely").is_empty());
+    // Glass hides nothing.
+    let mut glass = quad([0.0, 0.0, 0.0], [10.0, 10.0, 0.0]);
+    for v in &mut glass.vertices {
+        v.color[3] = 38;
+    }
+    assert!(occluder_triangles(&glass.encode(0, 0)).is_empty());
 }
 
 #[test]
@@ -31,4 +37,42 @@ fn the_store_stays_within_its_bytes() {
     let mut tiny = OccluderStore::new(10);
     tiny.insert_from(0, &payload, 0);
     assert!(tiny.is_empty());
+}
+
+/// The occluders by their definition: every triangle of at least the
+/// least area, by area (largest first, ties in mesh order), the first
+/// [`store::MAX_TRIS`].
+fn occluders_by_definition(m: &crate::format::RepMesh) -> Vec<[glam::Vec3; 3]> {
+    let pos = |i: u32| glam::Vec3::from(m.position(&m.vertices[i as usize]));
+    let diag = glam::Vec3::from_array(m.quant_scale).length() * 65535.0;
+    let mut all: Vec<(f32, [glam::Vec3; 3])> = m
+        .indices
+        .chunks_exact(3)
+        .filter(|t| t.iter().all(|&i| m.vertices[i as usize].color[3] == 255))
+        .map(|t| {
+            let p = [pos(t[0]), pos(t[1]), pos(t[2])];
+            (0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length(), p)
+        })
+        .filter(|(a, _)| a.is_finite() && *a >= 1e-3 * diag * diag)
+        .collect();
+    all.sort_by(|a, b| b.0.total_cmp(&a.0));
+    all.truncate(store::MAX_TRIS);
+    all.into_iter().map(|(_, p)| p).collect()
+}
+
+proptest::proptest! {
+    #[test]
+    fn occluders_are_the_largest_triangles_in_mesh_order_of_ties(
+        pts in proptest::collection::vec((0u8..6, 0u8..6, 0u8..3, proptest::bool::weighted(0.8)), 3..40),
+        tris in proptest::collection::vec((0usize..40, 0usize..40, 0usize..40), 1..200),
+    ) {
+        // Coarse coordinates: many triangles of equal area (ties).
+        let p: Vec<[f32; 3]> = pts.iter().map(|&(x, y, z, _)| [f32::from(x), f32::from(y), f32::from(z)]).collect();
+        // Some corners translucent: their triangles are no occluders.
+        let c: Vec<[u8; 4]> = pts.iter().map(|&(.., opaque)| [9, 9, 9, if opaque { 255 } else { 40 }]).collect();
+        let n = p.len();
+        let idx: Vec<u32> = tris.iter().flat_map(|&(a, b, c)| [a % n, b % n, c % n]).map(|i| i as u32).collect();
+        let m = crate::format::RepMesh::quantize(&p, &vec![[0.0, 0.0, 1.0]; n], &c, idx);
+        proptest::prop_assert_eq!(occluder_triangles(&m.encode(0, 0)), occluders_by_definition(&m));
+    }
 }

@@ -61,6 +61,8 @@ pub(super) struct Items {
     pub items: Vec<Item>,
     pub cluster: Vec<ClusterItem>,
     pub chunked_objects: u64,
+    pub hidden_objects: u64,
+    pub hidden_triangles: u64,
 }
 
 /// Object `o`'s mesh in world (scene) space.
@@ -90,10 +92,21 @@ pub(super) fn make_items<S: SceneSource>(
         items: Vec::new(),
         cluster: Vec::new(),
         chunked_objects: 0,
+        hidden_objects: 0,
+        hidden_triangles: 0,
     };
+    // IFC voids and spaces are left out (they stay in the object section,
+    // with no geometry), unless they are all the scene has.
+    let hide = |i: &crate::import::Instance| !params.ifc_voids && crate::import::ifc_void(&i.name);
+    let hide_any = scene.instances.iter().any(|i| !hide(i));
     for (obj, inst) in scene.instances.iter().enumerate() {
         let object = obj as u32;
         let meta = scene.meta[inst.mesh].expect("instances refer to usable meshes");
+        if hide_any && hide(inst) {
+            out.hidden_objects += 1;
+            out.hidden_triangles += meta.tris as u64;
+            continue;
+        }
         let mt = params.mt_tris > 0 && meta.tris >= params.mt_tris;
         if mt || (params.vdt_tris > 0 && meta.tris >= params.vdt_tris) {
             let world = world_mesh(src, object)?;

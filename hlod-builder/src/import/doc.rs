@@ -263,6 +263,9 @@ pub struct Scene {
 pub struct Material {
     pub pbr_metallic_roughness: Option<PbrMetallicRoughness>,
     pub extensions: MaterialExtensions,
+    /// `OPAQUE` (the default), `MASK` or `BLEND`.
+    pub alpha_mode: Option<String>,
+    pub alpha_cutoff: Option<f64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -285,6 +288,24 @@ pub struct SpecGloss {
 }
 
 impl Material {
+    /// The alpha a surface of this material is drawn with, from the
+    /// alpha of its colour (`a`, in [0, 1]): as it is under `BLEND`, 0 or 1
+    /// by the cutoff (0.5 unless given) under `MASK`, and 1 under `OPAQUE`
+    /// (glTF ignores the alpha then).
+    pub fn alpha(&self, a: f64) -> f64 {
+        match self.alpha_mode.as_deref() {
+            Some("BLEND") => a,
+            Some("MASK") => {
+                if a >= self.alpha_cutoff.unwrap_or(0.5) {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            _ => 1.0,
+        }
+    }
+
     /// The colour a flat-shaded viewer draws: the specular-glossiness
     /// diffuse factor where that model is given (its `pbrMetallicRoughness`
     /// is then a fallback), else the base colour factor; unlit and the

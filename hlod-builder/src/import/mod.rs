@@ -51,6 +51,18 @@ pub enum ImportError {
     NoTriangles { path: PathBuf, why: String },
 }
 
+/// Whether an object, by the IFC class its name starts with (as IFC
+/// exporters name nodes), stands for no visible part: an opening's void
+/// (`IfcOpeningElement`, written as a solid box in every door and window
+/// hole by some exporters) or a room's volume (`IfcSpace`, a translucent
+/// box filling the room). Viewers of BIM hide both.
+pub fn ifc_void(name: &str) -> bool {
+    ["IfcOpeningElement", "IfcSpace"].iter().any(|c| {
+        name.strip_prefix(c)
+            .is_some_and(|rest| !rest.starts_with(|ch: char| ch.is_alphanumeric()))
+    })
+}
+
 /// One placement of a mesh: an *object*.
 #[derive(Clone, Debug)]
 pub struct Instance {

@@ -65,15 +65,18 @@ pub fn read_mesh(
             continue;
         }
         let indices = triangulate(prim.mode, &raw);
-        let base = prim
-            .material
-            .and_then(|i| doc.materials.get(i))
-            .map_or([1.0; 4], |mat| mat.base_color());
-        let colors = match prim.attributes.get("COLOR_0") {
+        let material = prim.material.and_then(|i| doc.materials.get(i));
+        let base = material.map_or([1.0; 4], |mat| mat.base_color());
+        let mut colors = match prim.attributes.get("COLOR_0") {
             Some(&a) => read_colors(bufs, a, base, positions.len())
                 .map_err(|e| format!("{what}.attributes.COLOR_0: {e}"))?,
             None => vec![to_rgba8(base); positions.len()],
         };
+        // The alpha mode decides what the alpha means (opaque without one).
+        for c in &mut colors {
+            let a = material.map_or(1.0, |m| m.alpha(f64::from(c[3]) / 255.0));
+            c[3] = to_rgba8([a; 4])[3];
+        }
         let mut part = Mesh {
             colors,
             normals: normals.clone().unwrap_or_default(),
@@ -174,5 +177,59 @@ fn triangulate(mode: u32, idx: &[u32]) -> Vec<u32> {
             .flat_map(|i| [idx[0], idx[i - 1], idx[i]])
             .collect(),
         _ => idx[..idx.len() - idx.len() % 3].to_vec(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use base64::Engine as _;
+    use serde_json::json;
+
+    /// The alpha of the one triangle placed for each material.
+    fn alphas(materials: serde_json::Value) -> Vec<u8> {
+        let n = materials.as_array().map_or(0, Vec::len);
+        let pos: Vec<u8> = [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
+        let uri = format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&pos)
+        );
+        let doc = json!({
+            "asset": {"version": "2.0"},
+            "buffers": [{"byteLength": 36, "uri": uri}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0]}],
+            "materials": materials,
+            "meshes": (0..n).map(|m| json!({"primitives": [{"attributes": {"POSITION": 0}, "material": m}]})).collect::<Vec<_>>(),
+            "nodes": (0..n).map(|m| json!({"mesh": m})).collect::<Vec<_>>(),
+            "scenes": [{"nodes": (0..n).collect::<Vec<_>>()}],
+            "scene": 0,
+        });
+        let bytes = serde_json::to_vec(&doc).unwrap();
+        let p = std::path::Path::new("alpha.gltf");
+        let imp = crate::import::load_slice(&bytes, std::path::Path::new("."), p).unwrap();
+        imp.meshes
+            .iter()
+            .map(|m| m.as_ref().unwrap().colors[0][3])
+            .collect()
+    }
+
+    #[test]
+    fn the_alpha_mode_decides_what_a_colours_alpha_means() {
+        let pbr = |a: f64| json!({"baseColorFactor": [0.5, 0.5, 0.5, a]});
+        let got = alphas(json!([
+            {"pbrMetallicRoughness": pbr(0.3)},
+            {"pbrMetallicRoughness": pbr(0.3), "alphaMode": "OPAQUE"},
+            {"pbrMetallicRoughness": pbr(0.3), "alphaMode": "BLEND"},
+            {"pbrMetallicRoughness": pbr(0.3), "alphaMode": "MASK"},
+            {"pbrMetallicRoughness": pbr(0.7), "alphaMode": "MASK"},
+            {"pbrMetallicRoughness": pbr(0.3), "alphaMode": "MASK", "alphaCutoff": 0.2},
+        ]));
+        // Opaque unless blended; masked to 0 or 1 by the cutoff.
+        assert_eq!(got, [255, 255, 77, 0, 255, 255]);
     }
 }

@@ -255,9 +255,11 @@ impl SceneStream {
         for (i, (_, c)) in mats.iter().enumerate() {
             sep(w, i)?;
             let f = c.map(|x| f64::from(x) / 255.0);
+            // A translucent colour is blended (glTF ignores alpha otherwise).
+            let mode = if c[3] < u8::MAX { "BLEND" } else { "OPAQUE" };
             serde_json::to_writer(
                 &mut *w,
-                &json!({"pbrMetallicRoughness": {"baseColorFactor": f, "metallicFactor": 0.0, "roughnessFactor": 0.8}}),
+                &json!({"pbrMetallicRoughness": {"baseColorFactor": f, "metallicFactor": 0.0, "roughnessFactor": 0.8}, "alphaMode": mode}),
             )?;
         }
         w.write_all(b"],\"meshes\":[")?;

@@ -64,3 +64,50 @@ fn every_finest_triangle_lies_in_the_box_of_the_object_it_is_attributed_to() {
     assert!(merged > 10, "the Duplex has merged leaves ({merged})");
     assert_eq!(tris, stats.usable_triangles);
 }
+
+/// The objects of a built scene whose finest reps hold a triangle.
+fn drawn_objects(scene: &engine::SceneFile) -> std::collections::BTreeSet<u32> {
+    let table = scene.read_objects().unwrap();
+    let s = scene.skeleton();
+    let mut out = std::collections::BTreeSet::new();
+    for (i, n) in s.nodes.iter().enumerate().filter(|(_, n)| n.is_leaf()) {
+        let rep = n.first_rep + n.rep_count - 1;
+        for t in 0..s.reps[rep as usize].tri_count {
+            out.extend(table.object_at(s, i as u32, t));
+        }
+    }
+    out
+}
+
+#[test]
+fn ifc_opening_voids_and_spaces_are_left_out_unless_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = data_dir().join("Ifc2x3_Duplex_Architecture.glb");
+    let (a, b) = (dir.path().join("a.hlod"), dir.path().join("b.hlod"));
+    let hidden = build_file(&input, &a, &BuildParams::default(), false).unwrap();
+    let kept = BuildParams {
+        ifc_voids: true,
+        ..BuildParams::default()
+    };
+    let all = build_file(&input, &b, &kept, false).unwrap();
+    // The Duplex has 50 IfcOpeningElement and 21 IfcSpace objects.
+    assert_eq!((hidden.hidden_objects, all.hidden_objects), (71, 0));
+    assert_eq!(hidden.objects, all.objects, "both list every object");
+    assert_eq!(
+        hidden.usable_triangles + hidden.hidden_triangles,
+        all.usable_triangles
+    );
+    let (sa, sb) = (
+        engine::SceneFile::open(&a).unwrap(),
+        engine::SceneFile::open(&b).unwrap(),
+    );
+    let table = sa.read_objects().unwrap();
+    let (da, db) = (drawn_objects(&sa), drawn_objects(&sb));
+    assert_eq!(db.len() as u64, all.objects, "every object is drawn");
+    for k in 0..table.len() as u32 {
+        let v: serde_json::Value = serde_json::from_str(table.info(k).unwrap()).unwrap();
+        let name = v["name"].as_str().unwrap();
+        let void = name.starts_with("IfcOpeningElement") || name.starts_with("IfcSpace");
+        assert_eq!(da.contains(&k), !void, "{name}");
+    }
+}

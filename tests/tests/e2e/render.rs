@@ -345,3 +345,65 @@ fn a_small_arena_recycles_idle_gpu_copies() {
     assert_eq!(r.stats().bad_payloads, 1);
     assert!(r.context().take_errors().is_empty());
 }
+
+/// A quad across x, y in `-h..h` at depth `z`, facing +z, of one colour.
+fn pane(h: f32, z: f32, color: [u8; 4]) -> hlod_builder::mesh::Mesh {
+    hlod_builder::mesh::Mesh {
+        positions: vec![[-h, -h, z], [h, -h, z], [h, h, z], [-h, h, z]],
+        normals: vec![[0.0, 0.0, 1.0]; 4],
+        colors: vec![color; 4],
+        indices: vec![0, 1, 2, 0, 2, 3],
+    }
+}
+
+#[test]
+fn translucent_surfaces_blend_over_what_is_behind_and_hide_behind_opaque_ones() {
+    use hlod_builder::scenegen::glb::{GlbObject, to_glb};
+    // Seen from +z: a blue glass pane in front of a red wall, and a green
+    // glass pane behind the wall.
+    let meshes = [
+        pane(1.0, 0.0, [255, 0, 0, 255]),
+        pane(0.5, 1.0, [0, 0, 255, 96]),
+        pane(0.8, -1.0, [0, 255, 0, 96]),
+    ];
+    let objects: Vec<GlbObject> = (0..3)
+        .map(|m| GlbObject {
+            name: format!("pane {m}"),
+            mesh: m,
+            transform: glam::Mat4::IDENTITY,
+        })
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let glb = dir.path().join("panes.glb");
+    std::fs::write(&glb, to_glb(&meshes, &objects).unwrap()).unwrap();
+    let (_d, scene) = build(&glb);
+    let (skel, source, data) = load(&scene);
+    let Some(mut r) = renderer(
+        "translucent_surfaces_blend_over_what_is_behind_and_hide_behind_opaque_ones",
+        data,
+        Colouring::Object,
+    ) else {
+        return;
+    };
+    let mut walk = Walkthrough::start(skel, source, params(Mode::Incore, 0, 0.5)).unwrap();
+    let img = shot(
+        &mut walk,
+        &mut r,
+        &Pose::look_at(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, 50.0),
+    );
+    let (cx, cy) = (W / 2, H / 2);
+    let centre = img.pixel(cx, cy);
+    // The wall beside the blue pane: red, with no green from behind it.
+    let px = |x: f32| (cx as f32 + x * H as f32 / 2.0 / (4.0 * (25f32).to_radians().tan())) as u32;
+    let wall = img.pixel(px(0.75), cy);
+    assert!(
+        wall[0] > 100 && wall[1] == 0 && wall[2] == 0,
+        "wall {wall:?}"
+    );
+    // Through the glass: the wall's red dimmed, with blue over it.
+    assert!(
+        centre[2] > 40 && centre[0] > 40 && centre[0] < wall[0] && centre[1] == 0,
+        "glass over the wall {centre:?}"
+    );
+    assert!(r.context().take_errors().is_empty());
+}
