@@ -481,12 +481,17 @@ pub fn walk_through(info: &str) -> bool {
         return false;
     };
     let name = v.get("name").and_then(|n| n.as_str()).unwrap_or("");
-    ["IfcOpeningElement", "IfcSpace", "IfcDoor"]
-        .iter()
-        .any(|c| {
-            name.strip_prefix(c)
-                .is_some_and(|rest| !rest.starts_with(|ch: char| ch.is_alphanumeric()))
-        })
+    ifc_class_in(name, &["IfcOpeningElement", "IfcSpace", "IfcDoor"])
+}
+
+/// Whether an object's name starts with one of the IFC `classes` as a
+/// whole word (`IfcDoor:…` is of class `IfcDoor`, `IfcDoorStyle` is not),
+/// as IFC exporters name nodes.
+pub fn ifc_class_in(name: &str, classes: &[&str]) -> bool {
+    classes.iter().any(|c| {
+        name.strip_prefix(c)
+            .is_some_and(|rest| !rest.starts_with(|ch: char| ch.is_alphanumeric()))
+    })
 }
 
 /// The finest static reps' triangles for which `keep(leaf, triangle)`.

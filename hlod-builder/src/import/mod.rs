@@ -57,10 +57,7 @@ pub enum ImportError {
 /// hole by some exporters) or a room's volume (`IfcSpace`, a translucent
 /// box filling the room). Viewers of BIM hide both.
 pub fn ifc_void(name: &str) -> bool {
-    ["IfcOpeningElement", "IfcSpace"].iter().any(|c| {
-        name.strip_prefix(c)
-            .is_some_and(|rest| !rest.starts_with(|ch: char| ch.is_alphanumeric()))
-    })
+    engine::interior::ifc_class_in(name, &["IfcOpeningElement", "IfcSpace"])
 }
 
 /// One placement of a mesh: an *object*.

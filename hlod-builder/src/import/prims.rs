@@ -73,9 +73,12 @@ pub fn read_mesh(
             None => vec![to_rgba8(base); positions.len()],
         };
         // The alpha mode decides what the alpha means (opaque without one).
-        for c in &mut colors {
-            let a = material.map_or(1.0, |m| m.alpha(f64::from(c[3]) / 255.0));
-            c[3] = to_rgba8([a; 4])[3];
+        if let Some(m) = material {
+            for c in &mut colors {
+                c[3] = (m.alpha(f64::from(c[3]) / 255.0) * 255.0).round() as u8;
+            }
+        } else {
+            colors.iter_mut().for_each(|c| c[3] = u8::MAX);
         }
         let mut part = Mesh {
             colors,
