@@ -35,6 +35,9 @@ pub struct Bins {
     queues: Vec<VecDeque<(RepId, u8)>>,
     /// Bin indices from highest to lowest priority.
     order: Vec<usize>,
+    /// Served after every bin: reps out of the view that were hidden when
+    /// last in it.
+    hidden: VecDeque<(RepId, u8)>,
     len: usize,
 }
 
@@ -57,6 +60,7 @@ impl Bins {
             delta,
             queues: vec![VecDeque::new(); b],
             order,
+            hidden: Default::default(),
             len: 0,
         }
     }
@@ -88,11 +92,10 @@ impl Bins {
         }
     }
 
-    /// Appends `rep` to the bin served last (a rep hidden from the view:
-    /// it may show at the next door, after everything visible).
-    pub fn push_last(&mut self, rep: RepId, depth: u8) {
-        let b = *self.order.last().expect("at least one bin");
-        self.queues[b].push_back((rep, depth));
+    /// Appends `rep` after every bin: a rep out of the view that
+    /// occlusion culling hid when it was last in it.
+    pub fn push_hidden(&mut self, rep: RepId, depth: u8) {
+        self.hidden.push_back((rep, depth));
         self.len += 1;
     }
 
@@ -100,23 +103,28 @@ impl Bins {
     pub fn peek(&self) -> Option<(RepId, u8)> {
         self.order
             .iter()
-            .find_map(|&b| self.queues[b].front().copied())
+            .map(|&b| &self.queues[b])
+            .chain([&self.hidden])
+            .find_map(|q| q.front().copied())
     }
 
     /// The first item of the highest-priority non-empty bin.
     pub fn pop(&mut self) -> Option<(RepId, u8)> {
-        for &b in &self.order {
-            if let Some(x) = self.queues[b].pop_front() {
-                self.len -= 1;
-                return Some(x);
-            }
+        let x = self
+            .order
+            .iter()
+            .find(|&&b| !self.queues[b].is_empty())
+            .and_then(|&b| self.queues[b].pop_front())
+            .or_else(|| self.hidden.pop_front());
+        if x.is_some() {
+            self.len -= 1;
         }
-        None
+        x
     }
 
     /// Flushes every bin.
     pub fn clear(&mut self) {
-        for q in &mut self.queues {
+        for q in self.queues.iter_mut().chain([&mut self.hidden]) {
             q.clear();
         }
         self.len = 0;
@@ -148,6 +156,25 @@ mod tests {
             assert_eq!(b.pop(), Some(x));
         }
         assert!(b.is_empty());
+    }
+
+    #[test]
+    fn hidden_reps_come_after_every_bin_in_arrival_order() {
+        let mut b = Bins::new(4, 4.0, 1.0);
+        b.push_hidden(5, 0);
+        b.push(7, 3.9, 1);
+        b.push_hidden(6, 1);
+        b.push(8, 0.1, 0);
+        assert_eq!(b.len(), 4);
+        let mut got = Vec::new();
+        while let Some(x) = b.peek() {
+            assert_eq!(b.pop(), Some(x));
+            got.push(x.0);
+        }
+        assert_eq!(got, [8, 7, 5, 6]);
+        b.push_hidden(1, 0);
+        b.clear();
+        assert!(b.is_empty() && b.pop().is_none());
     }
 
     #[test]

@@ -80,6 +80,11 @@ pub struct OcclusionCuller {
     near: f32,
     /// Triangles scanned for occluders this frame.
     scanned: u64,
+    /// The reps found visible at the end of the last frame.
+    last_visible: Vec<RepId>,
+    /// The tolerance of this frame's last pass 1, and of the last frame's.
+    tol: f32,
+    prev_tol: f32,
     stats: CullStats,
 }
 
@@ -99,6 +104,9 @@ impl OcclusionCuller {
             ppr: 1.0,
             near: 1.0,
             scanned: 0,
+            last_visible: Vec::new(),
+            tol: f32::NAN,
+            prev_tol: f32::NAN,
             stats: CullStats::default(),
         }
     }
@@ -116,22 +124,34 @@ impl OcclusionCuller {
         self.ppr = view.pixels_per_radian();
         self.near = view.near;
         self.scanned = 0;
+        self.prev_tol = self.tol;
     }
 
-    /// Pass 1: removes from `front` the reps hidden behind the occluders,
-    /// appending them to `hidden`. Called after
-    /// [`begin_frame`](Self::begin_frame), once or more (the last call's
-    /// front is the one drawn).
+    /// Pass 1: removes from `front`, the front at tolerance `tol`, the
+    /// reps hidden behind the occluders, appending them to `hidden`.
+    /// Called after [`begin_frame`](Self::begin_frame), once or more (the
+    /// last call's front is the one drawn).
+    ///
+    /// At the last frame's tolerance the occluders are the front's reps
+    /// that were visible in the last frame. At another tolerance (the
+    /// governor searching) the front holds other reps of the same nodes,
+    /// few of them ever drawn, so those would leave culling with almost no
+    /// occluders and the front would balloon at every step; there the
+    /// occluders are all of the last frame's visible reps, which the
+    /// front's reps approximate to within the larger of the two
+    /// tolerances (see `ARCHITECTURE.md`, *Occlusion culling*).
     pub fn cull(
         &mut self,
         view: &View,
         skeleton: &Skeleton,
         index: &FrontIndex,
+        tol: f32,
         front: &mut Vec<RepId>,
         hidden: &mut Vec<RepId>,
     ) {
         self.pass += 1;
         self.stats = CullStats::default();
+        self.tol = tol;
         let buf = match &mut self.buffer {
             Some(b) => {
                 b.reset(view);
@@ -140,30 +160,38 @@ impl OcclusionCuller {
             None => self.buffer.insert(OcclusionBuffer::new(view)),
         };
         let (prev, now) = (self.frame - 1, self.pass);
-        // The occluders, nearest first: what is near hides most, and the
-        // tiles it covers turn the triangles behind away early.
-        let mut is_occluder = vec![false; front.len()];
         let mut near: Vec<(f32, u32, Tris)> = Vec::new();
-        for (k, &r) in front.iter().enumerate() {
-            if self.visible[r as usize] != prev || prev == 0 {
-                continue;
+        let mut take = |r: RepId, near: &mut Vec<(f32, u32, Tris)>| {
+            if self.rasterised[r as usize] == now {
+                return;
             }
             if let Some(t) = self.store.get(r, self.frame) {
                 let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
-                near.push((box_distance(view.pose.position, mn, mx), k as u32, t));
-                is_occluder[k] = true;
+                near.push((box_distance(view.pose.position, mn, mx), r, t));
                 self.rasterised[r as usize] = now;
+            }
+        };
+        if prev > 0 {
+            if tol == self.prev_tol {
+                for &r in front.iter() {
+                    if self.visible[r as usize] == prev {
+                        take(r, &mut near);
+                    }
+                }
+            } else {
+                for &r in &self.last_visible {
+                    take(r, &mut near);
+                }
             }
         }
         rasterise_nearest_first(buf, &mut near);
         self.stats.occluders = near.len() as u32;
-        let mut i = 0;
+        let rasterised = &self.rasterised;
         front.retain(|&r| {
-            let keep = is_occluder[i] || {
+            let keep = rasterised[r as usize] == now || {
                 let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
                 !buf.box_occluded(mn, mx)
             };
-            i += 1;
             if !keep {
                 hidden.push(r);
             }
@@ -216,10 +244,12 @@ impl OcclusionCuller {
             }
         }
         rasterise_nearest_first(buf, &mut near);
+        self.last_visible.clear();
         for &r in front {
             let (mn, mx) = index.node_box(skeleton.reps[r as usize].node);
             if !buf.box_occluded(mn, mx) {
                 self.visible[r as usize] = frame;
+                self.last_visible.push(r);
             }
         }
         self.stats.triangles = buf.triangles;

@@ -76,3 +76,52 @@ proptest::proptest! {
         proptest::prop_assert_eq!(occluder_triangles(&m.encode(0, 0)), occluders_by_definition(&m));
     }
 }
+
+/// Pass 1's occluders: at the last frame's tolerance, only the front's reps
+/// that were visible last frame; at another tolerance (the governor
+/// searching, its front holding other reps of the same nodes), every rep
+/// visible last frame, so that culling keeps its occluders across a change
+/// of tolerance.
+#[test]
+fn occluders_follow_the_last_frame_across_a_change_of_tolerance() {
+    use crate::camera::{Pose, View};
+    use crate::front::FrontIndex;
+    use crate::testutil::build;
+    // A root over 4 leaves of 2 LODs: reps 0 (root), then (1, 2), (3, 4), ...
+    let (bytes, skel) = build(&[1, 2, 2, 2, 2], &[4, 0, 0, 0, 0]);
+    let file = crate::format::SceneFile::from_source(crate::io::MemSource::new(bytes)).unwrap();
+    let index = FrontIndex::new(&skel);
+    let view = View {
+        pose: Pose::look_at(Vec3::new(2.0, 0.5, 3.0), Vec3::new(2.0, 0.5, 0.0), 90.0),
+        width_px: 640,
+        height_px: 480,
+        near: 0.1,
+        far: 100.0,
+    };
+    let payload = |r: u32| -> Arc<[u8]> { file.read_rep_bytes(r).unwrap().into() };
+    let mut c = OcclusionCuller::new(skel.reps.len(), 1 << 20);
+    // Frame 1 draws the finer LOD of every leaf.
+    let fine: Vec<u32> = vec![2, 4, 6, 8];
+    c.begin_frame(&view);
+    let (mut front, mut hidden) = (fine.clone(), Vec::new());
+    c.cull(&view, &skel, &index, 1.0, &mut front, &mut hidden);
+    assert_eq!(c.stats().occluders, 0, "no last frame");
+    for &r in &front {
+        let rec = skel.reps[r as usize];
+        c.drawn(r, &rec, &payload(r), index.node_box(rec.node));
+    }
+    c.end_frame(&skel, &index, &front);
+    // Frame 2 at the same tolerance: its front's reps that were visible.
+    c.begin_frame(&view);
+    let coarse: Vec<u32> = vec![1, 3, 5, 8];
+    let (mut front, mut hidden) = (coarse.clone(), Vec::new());
+    c.cull(&view, &skel, &index, 1.0, &mut front, &mut hidden);
+    assert_eq!(c.stats().occluders, 1, "rep 8 only");
+    // At another tolerance: every rep visible in frame 1.
+    let (mut front, mut hidden) = (coarse.clone(), Vec::new());
+    c.cull(&view, &skel, &index, 1.25, &mut front, &mut hidden);
+    assert_eq!(c.stats().occluders, 4);
+    // Occluders in the front stay in it; the others are not added to it.
+    assert!(front.contains(&8));
+    assert!(front.iter().chain(&hidden).all(|r| coarse.contains(r)));
+}

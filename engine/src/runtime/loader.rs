@@ -213,7 +213,7 @@ impl Loader {
                     fading,
                 } => {
                     self.set_tolerance(tolerance_px);
-                    self.classes.set_hidden(&hidden);
+                    self.classes.set_hidden(&front, &hidden);
                     self.keep_hidden(&hidden);
                     self.pacing
                         .on_fetch(self.clock.now(), f64::from(self.params.frame_period_s));

@@ -73,7 +73,7 @@ impl FrontSelect {
         out.front_ms += t.elapsed().as_secs_f64() * 1e3;
         if let Some(c) = &mut self.occlusion {
             let t = Instant::now();
-            c.cull(view, s, &self.index, &mut out.front, &mut out.hidden);
+            c.cull(view, s, &self.index, tol, &mut out.front, &mut out.hidden);
             out.occlusion_ms += t.elapsed().as_secs_f64() * 1e3;
         }
         let mut cost = FrontCost::default();

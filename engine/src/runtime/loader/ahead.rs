@@ -140,9 +140,9 @@ impl Lookahead {
                     res.access(r);
                     continue;
                 }
-                // Hidden now (behind a wall from here): after every rep the
-                // motion will see, in the same horizon order, since a door
-                // ahead may show it.
+                // Hidden now, or when last in the view (behind a wall): after
+                // every rep the motion will see, in the same horizon order,
+                // since a door ahead may show it.
                 let stage = if classes.is_hidden(r) {
                     stage + passes.len()
                 } else {

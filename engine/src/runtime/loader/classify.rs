@@ -31,10 +31,14 @@ pub(super) struct Classifier {
     front: Vec<RepId>,
     all: Vec<RepId>,
     /// A rep is hidden from the view (occlusion culling left it out of
-    /// P_R's front) when its stamp is `hidden_stamp`: it goes to the bin
-    /// served last.
+    /// P_R's front) when its stamp is `hidden_stamp`: it is binned as a
+    /// rep at the edge of F_I.
     hidden: Vec<u32>,
     hidden_stamp: u32,
+    /// Whether each rep was hidden (rather than drawn) the last time P_R's
+    /// front held it: one not in the view's front now that was hidden then
+    /// is served after every bin.
+    was_hidden: Vec<bool>,
 }
 
 impl Classifier {
@@ -53,6 +57,7 @@ impl Classifier {
             all: Vec::new(),
             hidden: vec![0; reps],
             hidden_stamp: 1,
+            was_hidden: vec![false; reps],
         }
     }
 
@@ -63,16 +68,22 @@ impl Classifier {
         self.generation += 1;
     }
 
-    /// Whether occlusion culling left rep `r` out of this fetch's front.
+    /// Whether occlusion culling left rep `r` out of this fetch's front,
+    /// or out of the last front that held it.
     pub(super) fn is_hidden(&self, r: RepId) -> bool {
-        self.hidden[r as usize] == self.hidden_stamp
+        self.was_hidden[r as usize]
     }
 
-    /// The reps occlusion culling left out of this fetch's front.
-    pub(super) fn set_hidden(&mut self, hidden: &[RepId]) {
+    /// This fetch's front (`front`) and the reps occlusion culling left out
+    /// of it (`hidden`).
+    pub(super) fn set_hidden(&mut self, front: &[RepId], hidden: &[RepId]) {
         self.hidden_stamp += 1;
         for &r in hidden {
             self.hidden[r as usize] = self.hidden_stamp;
+            self.was_hidden[r as usize] = true;
+        }
+        for &r in front {
+            self.was_hidden[r as usize] = false;
         }
     }
 
@@ -155,8 +166,9 @@ impl Classifier {
         let (Some(view), Some(own)) = (self.view, self.own) else {
             return;
         };
-        if self.hidden[r as usize] == self.hidden_stamp {
-            self.bins.push_last(r, depth);
+        let hidden_now = self.hidden[r as usize] == self.hidden_stamp;
+        if self.was_hidden[r as usize] && !hidden_now {
+            self.bins.push_hidden(r, depth);
             self.queued[r as usize] = self.generation;
             return;
         }
@@ -164,7 +176,13 @@ impl Classifier {
         let by_node = plan.skeleton.reps[by as usize].node;
         let eps = plan.index.projected_error(&view, by_node, by);
         let (mn, mx) = plan.index.node_box(node);
-        let theta = own.angle_to_box(mn, mx);
+        // A rep hidden in the view ranks as one at the edge of F_I: a door
+        // ahead may show it, as a turn may show what lies beside the view.
+        let theta = if hidden_now {
+            self.theta0 + self.theta1
+        } else {
+            own.angle_to_box(mn, mx)
+        };
         let mut prio = priority(
             eps,
             plan.params.tolerance_px,
