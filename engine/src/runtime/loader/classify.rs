@@ -173,8 +173,6 @@ impl Classifier {
             return;
         }
         let node = plan.skeleton.reps[r as usize].node;
-        let by_node = plan.skeleton.reps[by as usize].node;
-        let eps = plan.index.projected_error(&view, by_node, by);
         let (mn, mx) = plan.index.node_box(node);
         // A rep hidden in the view ranks as one at the edge of F_I: a door
         // ahead may show it, as a turn may show what lies beside the view.
@@ -183,11 +181,18 @@ impl Classifier {
         } else {
             own.angle_to_box(mn, mx)
         };
-        let mut prio = priority(
-            eps,
-            plan.params.tolerance_px,
-            ang_pr(theta, self.theta0, self.theta1),
-        );
+        let tol = plan.params.tolerance_px;
+        let eps = if depth == 0 && plan.skeleton.reps[r as usize].error <= 0.0 {
+            // A finest rep of error 0 in F_I's front is needed as long as
+            // it is in view, at any distance: it counts as a rep at ε,
+            // ranked by its angle. By its own projected error, 0, it would
+            // rank last wherever it lay, in the order F_I's front lists it.
+            tol
+        } else {
+            let by_node = plan.skeleton.reps[by as usize].node;
+            plan.index.projected_error(&view, by_node, by)
+        };
+        let mut prio = priority(eps, tol, ang_pr(theta, self.theta0, self.theta1));
         if depth == 0 {
             // Reps of the F_I front are visibility-prefetched whatever their
             // error (a leaf's finest rep may project above δ); δ bounds only

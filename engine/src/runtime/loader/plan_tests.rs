@@ -236,3 +236,40 @@ fn f_i_is_all_around_only_when_the_all_around_front_fits() {
     index.restrict(&s, &v.frustum(margin), &mut all);
     assert_eq!(front, all);
 }
+
+#[test]
+fn f_i_front_reps_are_served_by_angle_whatever_their_error() {
+    // Finest reps of error 0 all around the eye, which stands above part
+    // 12 and looks along the row towards part 20. By ε(O)·AngPr(O) each
+    // would rank 0, last, in the order F_I's front lists them: the parts
+    // behind the eye (0..12) first. A finest rep is needed at any distance
+    // while in view, so it ranks as a rep at ε, by its angle: the parts
+    // ahead come first.
+    let mut s = row();
+    for r in &mut s.reps[1..] {
+        r.error = 0.0;
+    }
+    let mut p = params();
+    p.prefetch.all_around_fit = 1.0;
+    p.budget_bytes = s.reps.iter().map(|r| u64::from(r.len)).sum::<u64>() * 2;
+    let (index, res, mut c) = setup(&s, &p);
+    let plan = Plan::of(&s, &index, &p);
+    let pose = Pose::look_at(Vec3::new(12.5, 0.5, 3.0), Vec3::new(20.0, 0.5, 0.0), 20.0);
+    let view = p.view(&pose);
+    let (front, margin) = c
+        .classify_front(&plan, &res, &view, 0.0, &mut || false)
+        .unwrap();
+    assert_eq!((front.len(), margin), (24, std::f32::consts::PI));
+    let mut order = Vec::new();
+    while let Some((r, _)) = c.bins.pop() {
+        order.push(r);
+    }
+    let x = xs(&s, &order);
+    assert_eq!(x.len(), 24);
+    let at = |k: i32| x.iter().position(|&v| v == k).unwrap();
+    for ahead in 14..24 {
+        for behind in 0..=10 {
+            assert!(at(ahead) < at(behind), "{ahead} before {behind}: {x:?}");
+        }
+    }
+}
