@@ -172,13 +172,12 @@ impl Classifier {
             self.queued[r as usize] = self.generation;
             return;
         }
-        let node = plan.skeleton.reps[r as usize].node;
-        let (mn, mx) = plan.index.node_box(node);
         // A rep hidden in the view ranks as one at the edge of F_I: a door
         // ahead may show it, as a turn may show what lies beside the view.
         let theta = if hidden_now {
             self.theta0 + self.theta1
         } else {
+            let (mn, mx) = plan.index.node_box(plan.skeleton.reps[r as usize].node);
             own.angle_to_box(mn, mx)
         };
         let tol = plan.params.tolerance_px;
