@@ -5,6 +5,7 @@ use std::mem::size_of;
 use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
 
 use super::arena::{Alloc, Arena};
 use super::resources::{
@@ -518,9 +519,8 @@ impl GpuRenderer {
             });
             if self.view.is_some() && !draws.is_empty() {
                 pass.set_bind_group(0, &self.bind_group, &[]);
-                // The opaque pass, then the translucent pass over it, both
-                // in the same (deterministic) order; the translucent pass
-                // draws only the reps with a translucent colour.
+                // The opaque pass, then the translucent pass over it: only
+                // the reps with a translucent colour, back to front.
                 pass.set_pipeline(&self.pipeline);
                 self.stats.draws += self.issue(&mut pass, &draws, false);
                 if draws.iter().any(|(_, s)| s.translucent) {
@@ -542,10 +542,8 @@ impl GpuRenderer {
     ) -> u64 {
         let mut issued = 0;
         let mut bound = None;
-        for (k, (_, s)) in draws.iter().enumerate() {
-            if translucent && !s.translucent {
-                continue;
-            }
+        for k in self.pass_order(draws, translucent) {
+            let s = &draws[k].1;
             issued += 1;
             let key = (s.alloc.chunk, s.index_u32);
             if bound != Some(key) {
@@ -569,6 +567,23 @@ impl GpuRenderer {
             );
         }
         issued
+    }
+
+    /// The order in which a pass issues `draws` (indices): the opaque pass
+    /// takes them as they are; the translucent pass only the translucent
+    /// ones, back to front ([`back_to_front`]).
+    fn pass_order(&self, draws: &[(usize, Slot)], translucent: bool) -> Vec<usize> {
+        if !translucent {
+            return (0..draws.len()).collect();
+        }
+        let eye = self.view.as_ref().map_or(Vec3::ZERO, |v| v.pose.position);
+        back_to_front(
+            eye,
+            draws.iter().map(|(_, s)| {
+                let half = Vec3::from(s.quant_scale) * (65535.0 / 2.0);
+                s.translucent.then(|| Vec3::from(s.quant_min) + half)
+            }),
+        )
     }
 
     fn read_back(&mut self) -> Option<RgbaImage> {
@@ -649,5 +664,40 @@ impl Renderer for GpuRenderer {
 
     fn name(&self) -> &'static str {
         "wgpu"
+    }
+}
+
+/// The translucent draws (those with a box centre in `centres`) back to
+/// front: by the distance from `eye` to each rep's box centre, farthest
+/// first (blending is not commutative), ties in draw order. Per rep: the
+/// triangles of one rep keep their stored order.
+fn back_to_front(eye: Vec3, centres: impl Iterator<Item = Option<Vec3>>) -> Vec<usize> {
+    let mut far: Vec<(f32, usize)> = centres
+        .enumerate()
+        .filter_map(|(k, c)| c.map(|c| (c.distance_squared(eye), k)))
+        .collect();
+    far.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    far.into_iter().map(|(_, k)| k).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::back_to_front;
+    use glam::Vec3;
+
+    #[test]
+    fn translucent_draws_go_back_to_front_and_opaque_ones_are_left_out() {
+        let eye = Vec3::new(0.0, 0.0, 4.0);
+        let centres = [
+            Some(Vec3::new(0.0, 0.0, 0.5)),  // near glass
+            None,                            // opaque
+            Some(Vec3::new(0.0, 0.0, -3.0)), // far glass
+            Some(Vec3::new(3.5, 0.0, 4.0)),  // beside the eye, as near as the first
+            Some(Vec3::new(0.0, 0.0, -1.0)),
+        ];
+        assert_eq!(back_to_front(eye, centres.into_iter()), [2, 4, 0, 3]);
+        // From the other side, the other way round.
+        let behind = Vec3::new(0.0, 0.0, -8.0);
+        assert_eq!(back_to_front(behind, centres.into_iter()), [3, 0, 4, 2]);
     }
 }

@@ -26,7 +26,15 @@
 //! (Served by angle alone, a large object beside the path, whose box
 //! centre is far off the line of sight, came after hundreds of F_I reps
 //! that the view would not reach for seconds, and was missed.) The resident
-//! reps are touched so that no prefetch evicts them.
+//! reps are touched so that no prefetch evicts them, except, with
+//! occlusion culling on, those only in F_I's fronts ahead. Those fronts are
+//! not culled (outside the view nothing can test them), so on an interior
+//! walk they hold the rooms all around, 10-30 times the reps a culled front
+//! draws; protected, they filled the footprint and a door's newly visible
+//! reps found no room. Left untouched they keep their place in the list,
+//! and a prefetch may take their room. (Without culling, F_I's fronts are
+//! what a turn draws: left untouched there, they churned, and Stage II
+//! grew on the DE-size plant. Figures in docs/results.md.)
 
 use glam::{Quat, Vec3};
 
@@ -108,6 +116,9 @@ impl Lookahead {
             return;
         };
         let started = clock.now();
+        // With occlusion culling, F_I's fronts ahead (not culled: outside
+        // the view nothing tests them) overstate what turning would draw.
+        let protect_f_i = plan.params.occlusion_bytes == 0;
         let mut front = std::mem::take(&mut self.front);
         let mut keyed: Vec<(u32, u64, RepId)> = Vec::new();
         // First the view fronts (F_R) of each frame ahead, nearest first:
@@ -137,7 +148,9 @@ impl Lookahead {
                     continue;
                 }
                 if res.contains(r) {
-                    res.access(r);
+                    if m == 0.0 || protect_f_i {
+                        res.access(r);
+                    }
                     continue;
                 }
                 // Hidden now, or when last in the view (behind a wall): after

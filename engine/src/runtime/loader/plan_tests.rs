@@ -14,7 +14,7 @@ use crate::clock::{Clock, ManualClock};
 use crate::front::FrontIndex;
 use crate::prefetch::Bins;
 use crate::runtime::RuntimeParams;
-use crate::runtime::resident::ResidentSet;
+use crate::runtime::resident::{Purpose, ResidentSet};
 use crate::skeleton::{RepId, Skeleton};
 use crate::testutil::build;
 
@@ -270,6 +270,59 @@ fn f_i_front_reps_are_served_by_angle_whatever_their_error() {
     for ahead in 14..24 {
         for behind in 0..=10 {
             assert!(at(ahead) < at(behind), "{ahead} before {behind}: {x:?}");
+        }
+    }
+}
+
+#[test]
+fn with_occlusion_culling_the_lookahead_protects_only_what_the_motion_draws() {
+    // Moving along +x with an all-around F_I: the part at x = 7 is in the
+    // view fronts ahead, the part at x = 1 (behind the eye) only in F_I's
+    // fronts ahead. Both are resident, last used before this Stage II.
+    let s = row();
+    let (ahead_rep, behind_rep) = (8, 2);
+    assert_eq!(xs(&s, &[ahead_rep, behind_rep]), [7, 1]);
+    for culling in [false, true] {
+        let mut p = params();
+        p.prefetch.all_around_fit = 1.0;
+        p.budget_bytes = u64::MAX / 4;
+        p.occlusion_bytes = if culling { 1 << 20 } else { 0 };
+        let (index, mut res, mut c) = setup(&s, &p);
+        let plan = Plan::of(&s, &index, &p);
+        for r in [ahead_rep, behind_rep] {
+            res.reserve(res.cost(r));
+            res.insert(r, vec![0u8; s.reps[r as usize].len as usize].into(), false);
+        }
+        res.start_stage2(&[]);
+        let mut ahead = Lookahead::default();
+        ahead.observe(&pose_at(4.0));
+        ahead.observe(&pose_at(5.0));
+        let view = p.view(&pose_at(5.0));
+        let (_, margin) = c
+            .classify_front(&plan, &res, &view, 0.0, &mut || false)
+            .unwrap();
+        assert_eq!(margin, std::f32::consts::PI);
+        let failed = vec![false; s.reps.len()];
+        let clock = ManualClock::new();
+        ahead.plan(
+            &plan,
+            &mut res,
+            &failed,
+            &mut c,
+            &view,
+            margin,
+            &clock,
+            &mut || false,
+        );
+        // A prefetch needs the room of one part.
+        let need = res.cost(behind_rep);
+        let room = res.make_room(need, res.bytes(), Purpose::Prefetch, u64::MAX, |_| 0);
+        if culling {
+            // F_I's part behind the eye is not protected: its room is taken.
+            assert!(room && res.contains(ahead_rep) && !res.contains(behind_rep));
+        } else {
+            // Without culling, F_I's fronts are what a turn draws: both stay.
+            assert!(!room && res.contains(ahead_rep) && res.contains(behind_rep));
         }
     }
 }
