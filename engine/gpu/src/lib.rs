@@ -13,6 +13,7 @@
 //!   a caller's texture view (a window surface).
 
 pub mod arena;
+mod order;
 mod renderer;
 mod resources;
 

@@ -8,6 +8,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::arena::{Alloc, Arena};
+use super::order::back_to_front;
 use super::resources::{
     DrawData, Target, bind, create_pipeline, draw_buffer, layout_entry, make_target, read_texture,
     view_proj,
@@ -120,6 +121,13 @@ struct Slot {
     /// Some vertex colour is translucent: the rep is drawn by the
     /// translucent pass too.
     translucent: bool,
+}
+
+impl Slot {
+    /// The size of the rep's quantisation box (its vertices' bounds).
+    fn extent(&self) -> [f32; 3] {
+        self.quant_scale.map(|x| x * 65535.0)
+    }
 }
 
 #[derive(Debug)]
@@ -457,7 +465,7 @@ impl GpuRenderer {
         let data: Vec<DrawData> = draws
             .iter()
             .map(|(i, s)| {
-                let e = s.quant_scale.map(|x| x * 65535.0);
+                let e = s.extent();
                 // w: the fade's progress and direction (the shader's dither).
                 let (t, dir) = match self.frame_draws[*i].fade {
                     Fade::Opaque => (1.0, 0.0),
@@ -522,27 +530,28 @@ impl GpuRenderer {
                 // The opaque pass, then the translucent pass over it: only
                 // the reps with a translucent colour, back to front.
                 pass.set_pipeline(&self.pipeline);
-                self.stats.draws += self.issue(&mut pass, &draws, false);
-                if draws.iter().any(|(_, s)| s.translucent) {
+                self.stats.draws += self.issue(&mut pass, &draws, 0..draws.len());
+                let glass = self.translucent_order(&draws);
+                if !glass.is_empty() {
                     pass.set_pipeline(&self.blend_pipeline);
-                    self.stats.draws += self.issue(&mut pass, &draws, true);
+                    self.stats.draws += self.issue(&mut pass, &draws, glass);
                 }
             }
         }
         self.ctx.queue.submit([enc.finish()]);
     }
 
-    /// Issues `draws` (the translucent ones only, with `translucent`) into
+    /// Issues the draws `order` picks from `draws`, in that order, into
     /// `pass`, whose pipeline is set; returns how many.
     fn issue(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         draws: &[(usize, Slot)],
-        translucent: bool,
+        order: impl IntoIterator<Item = usize>,
     ) -> u64 {
         let mut issued = 0;
         let mut bound = None;
-        for k in self.pass_order(draws, translucent) {
+        for k in order {
             let s = &draws[k].1;
             issued += 1;
             let key = (s.alloc.chunk, s.index_u32);
@@ -569,18 +578,14 @@ impl GpuRenderer {
         issued
     }
 
-    /// The order in which a pass issues `draws` (indices): the opaque pass
-    /// takes them as they are; the translucent pass only the translucent
-    /// ones, back to front ([`back_to_front`]).
-    fn pass_order(&self, draws: &[(usize, Slot)], translucent: bool) -> Vec<usize> {
-        if !translucent {
-            return (0..draws.len()).collect();
-        }
+    /// The translucent pass's draws (indices into `draws`), back to front
+    /// ([`back_to_front`]).
+    fn translucent_order(&self, draws: &[(usize, Slot)]) -> Vec<usize> {
         let eye = self.view.as_ref().map_or(Vec3::ZERO, |v| v.pose.position);
         back_to_front(
             eye,
             draws.iter().map(|(_, s)| {
-                let half = Vec3::from(s.quant_scale) * (65535.0 / 2.0);
+                let half = Vec3::from(s.extent()) / 2.0;
                 s.translucent.then(|| Vec3::from(s.quant_min) + half)
             }),
         )
@@ -664,40 +669,5 @@ impl Renderer for GpuRenderer {
 
     fn name(&self) -> &'static str {
         "wgpu"
-    }
-}
-
-/// The translucent draws (those with a box centre in `centres`) back to
-/// front: by the distance from `eye` to each rep's box centre, farthest
-/// first (blending is not commutative), ties in draw order. Per rep: the
-/// triangles of one rep keep their stored order.
-fn back_to_front(eye: Vec3, centres: impl Iterator<Item = Option<Vec3>>) -> Vec<usize> {
-    let mut far: Vec<(f32, usize)> = centres
-        .enumerate()
-        .filter_map(|(k, c)| c.map(|c| (c.distance_squared(eye), k)))
-        .collect();
-    far.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    far.into_iter().map(|(_, k)| k).collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::back_to_front;
-    use glam::Vec3;
-
-    #[test]
-    fn translucent_draws_go_back_to_front_and_opaque_ones_are_left_out() {
-        let eye = Vec3::new(0.0, 0.0, 4.0);
-        let centres = [
-            Some(Vec3::new(0.0, 0.0, 0.5)),  // near glass
-            None,                            // opaque
-            Some(Vec3::new(0.0, 0.0, -3.0)), // far glass
-            Some(Vec3::new(3.5, 0.0, 4.0)),  // beside the eye, as near as the first
-            Some(Vec3::new(0.0, 0.0, -1.0)),
-        ];
-        assert_eq!(back_to_front(eye, centres.into_iter()), [2, 4, 0, 3]);
-        // From the other side, the other way round.
-        let behind = Vec3::new(0.0, 0.0, -8.0);
-        assert_eq!(back_to_front(behind, centres.into_iter()), [3, 0, 4, 2]);
     }
 }

@@ -56,6 +56,29 @@ fn xs(s: &Skeleton, reps: &[RepId]) -> Vec<i32> {
         .collect()
 }
 
+/// A lookahead that saw the camera move along +x by one part a frame, up
+/// to x = 5; the view there, classified by `c`, and F_I's margin.
+fn moving_to_5(
+    plan: &Plan,
+    res: &ResidentSet,
+    c: &mut Classifier,
+) -> (Lookahead, crate::camera::View, f32) {
+    let mut ahead = Lookahead::default();
+    ahead.observe(&pose_at(4.0));
+    ahead.observe(&pose_at(5.0));
+    let view = plan.params.view(&pose_at(5.0));
+    let (_, margin) = c
+        .classify_front(plan, res, &view, 0.0, &mut || false)
+        .unwrap();
+    (ahead, view, margin)
+}
+
+/// Rep `r` of `s` loaded into `res` (reserved, then inserted).
+fn make_resident(s: &Skeleton, res: &mut ResidentSet, r: RepId) {
+    res.reserve(res.cost(r));
+    res.insert(r, vec![0u8; s.reps[r as usize].len as usize].into(), false);
+}
+
 #[test]
 fn classify_bins_the_enlarged_front_once_per_viewpoint() {
     let (s, p) = (row(), params());
@@ -142,14 +165,7 @@ fn the_lookahead_serves_the_parts_the_motion_reaches_first() {
     let (index, mut res, mut c) = setup(&s, &p);
     let plan = Plan::of(&s, &index, &p);
     let failed = vec![false; s.reps.len()];
-    let mut ahead = Lookahead::default();
-    // Moving along +x by one part per frame.
-    ahead.observe(&pose_at(4.0));
-    ahead.observe(&pose_at(5.0));
-    let view = p.view(&pose_at(5.0));
-    let (_, margin) = c
-        .classify_front(&plan, &res, &view, 0.0, &mut || false)
-        .unwrap();
+    let (mut ahead, view, margin) = moving_to_5(&plan, &res, &mut c);
     let clock = ManualClock::new();
     // Plans `a` for `view` on `clock`; `stop` says a fetch command waits.
     let mut plan_with = |a: &mut Lookahead,
@@ -177,9 +193,7 @@ fn the_lookahead_serves_the_parts_the_motion_reaches_first() {
     plan_with(&mut still, &mut res, &clock, &mut || true);
     assert!(still.queue.reps.is_empty());
     // A resident part is touched, not queued.
-    res.reserve(res.cost(queued[0]));
-    let len = s.reps[queued[0] as usize].len as usize;
-    res.insert(queued[0], vec![0u8; len].into(), false);
+    make_resident(&s, &mut res, queued[0]);
     plan_with(&mut ahead, &mut res, &clock, &mut || true);
     assert!(!ahead.queue.reps.contains(&queued[0]));
     // A clock past the planning budget and a waiting fetch command stop the
@@ -290,17 +304,10 @@ fn with_occlusion_culling_the_lookahead_protects_only_what_the_motion_draws() {
         let (index, mut res, mut c) = setup(&s, &p);
         let plan = Plan::of(&s, &index, &p);
         for r in [ahead_rep, behind_rep] {
-            res.reserve(res.cost(r));
-            res.insert(r, vec![0u8; s.reps[r as usize].len as usize].into(), false);
+            make_resident(&s, &mut res, r);
         }
         res.start_stage2(&[]);
-        let mut ahead = Lookahead::default();
-        ahead.observe(&pose_at(4.0));
-        ahead.observe(&pose_at(5.0));
-        let view = p.view(&pose_at(5.0));
-        let (_, margin) = c
-            .classify_front(&plan, &res, &view, 0.0, &mut || false)
-            .unwrap();
+        let (mut ahead, view, margin) = moving_to_5(&plan, &res, &mut c);
         assert_eq!(margin, std::f32::consts::PI);
         let failed = vec![false; s.reps.len()];
         let clock = ManualClock::new();
