@@ -15,6 +15,7 @@ mod ahead;
 mod classify;
 mod late;
 mod misses;
+mod outbox;
 mod pacing;
 #[cfg(test)]
 mod plan_tests;
@@ -38,14 +39,11 @@ use ahead::Lookahead;
 use classify::Classifier;
 use late::LateReads;
 use misses::MissAccount;
+use outbox::Outbox;
+pub(super) use outbox::capacity as reply_capacity;
 use pacing::Pacing;
 use span::{FileOrder, IoCosts, Partial, preempted};
 use sweep::Sweep;
-
-/// Resident front reps handed to P_R per message: P_R starts drawing after
-/// the first few, and the channel (256 messages) holds a front of 65,536
-/// reps, so that P_I does not wait for P_R to draw them.
-const DRAW_BATCH: usize = 256;
 
 /// P_R is gone (its receiver dropped): P_I stops.
 #[derive(Debug)]
@@ -91,7 +89,8 @@ pub(super) struct Loader {
     source: Arc<dyn ByteSource>,
     params: RuntimeParams,
     cmds: Receiver<Cmd>,
-    replies: Sender<Reply>,
+    /// The replies to P_R, draws grouped.
+    out: Outbox,
     pending: Option<Cmd>,
     /// Where P_I's timing comes from (the system's clock, or a test's).
     clock: Arc<dyn crate::clock::Clock>,
@@ -155,7 +154,7 @@ impl Loader {
             source,
             params,
             cmds,
-            replies,
+            out: Outbox::new(replies),
             pending: None,
             clock,
             stats: LoaderCounters::default(),
@@ -406,29 +405,22 @@ impl Loader {
             self.send(Reply::Fading(outs))?;
         }
         let mut missing = Vec::new();
-        let mut draws = Vec::with_capacity(DRAW_BATCH.min(front.len()));
         for &r in front {
             match self.res.payload(r) {
                 Some(d) => {
                     let payload = d.clone();
                     self.res.access(r);
-                    draws.push(Draw {
+                    // P_R starts drawing while P_I goes through the rest.
+                    self.send_draw(Draw {
                         rep: r,
                         for_rep: r,
                         payload,
-                    });
-                    if draws.len() == DRAW_BATCH {
-                        // P_R starts drawing while P_I goes through the rest.
-                        let next = Vec::with_capacity(DRAW_BATCH);
-                        self.send(Reply::Draws(std::mem::replace(&mut draws, next)))?;
-                    }
+                    })?;
                 }
                 None => missing.push(r),
             }
         }
-        if !draws.is_empty() {
-            self.send(Reply::Draws(draws))?;
-        }
+        self.out.flush(self.clock.as_ref())?;
         self.stats.missing_reps = missing.len() as u32;
         let m = self
             .misses
@@ -454,11 +446,11 @@ impl Loader {
                 self.bridge(end, self.skeleton.reps[r as usize].offset, Purpose::Demand);
             }
             match self.load(r, Purpose::Demand) {
-                Ok(payload) => self.send(Reply::Draw(Draw {
+                Ok(payload) => self.send_draw(Draw {
                     rep: r,
                     for_rep: r,
                     payload,
-                }))?,
+                })?,
                 Err(_) => self.substitute(r)?,
             }
         }
@@ -477,19 +469,24 @@ impl Loader {
             });
             assert_eq!(self.res.reserved(), held, "a reservation leaked");
         }
+        self.out.flush(self.clock.as_ref())?;
+        self.stats.reply_wait_ms += self.out.take_wait_ms();
         let stats = std::mem::take(&mut self.stats);
         self.stats.max_resident_bytes = self.res.bytes();
         self.send(Reply::Done(stats))
     }
 
+    /// Reply `r`, after the draws and evictions before it.
     fn send(&mut self, r: Reply) -> Result<(), RendererGone> {
-        if self.res.has_evicted() {
-            let ev = self.res.take_evicted();
-            self.replies
-                .send(Reply::Evicted(ev))
-                .map_err(|_| RendererGone)?;
-        }
-        self.replies.send(r).map_err(|_| RendererGone)
+        let ev = self.res.has_evicted().then(|| self.res.take_evicted());
+        self.out.send(ev, r, self.clock.as_ref())
+    }
+
+    /// Draw `d` (grouped with the draws around it), after the evictions
+    /// before it.
+    fn send_draw(&mut self, d: Draw) -> Result<(), RendererGone> {
+        let ev = self.res.has_evicted().then(|| self.res.take_evicted());
+        self.out.draw(ev, d, self.clock.as_ref())
     }
 
     /// Draws the nearest resident ancestor in place of `r`.
@@ -500,11 +497,11 @@ impl Loader {
                 let payload = d.clone();
                 self.res.pin(x);
                 self.res.access(x);
-                return self.send(Reply::Draw(Draw {
+                return self.send_draw(Draw {
                     rep: x,
                     for_rep: r,
                     payload,
-                }));
+                });
             }
             a = self.skeleton.par(x);
         }

@@ -77,17 +77,16 @@ struct Draw {
 
 /// P_I → P_R.
 enum Reply {
-    /// The front reps already resident, in one message: P_I goes on to the
-    /// missing ones (and, after Stage II, to prefetching) while P_R draws
-    /// them, instead of waiting on the channel for P_R to take them one by
-    /// one.
+    /// Front reps to draw (resident ones, those Stage II read, ancestors
+    /// in place of others), grouped (`loader::outbox`): P_I goes on
+    /// reading and prefetching while P_R draws them, instead of waiting on
+    /// the channel for P_R to take them one by one.
     Draws(Vec<Draw>),
     /// The fading-out reps still resident (before any other draw).
     Fading(Vec<Draw>),
-    Draw(Draw),
     /// Nothing resident can stand in for `for_rep` (only without a root rep).
     Missing,
-    /// P_I evicted these reps (sent before any later `Draw`).
+    /// P_I evicted these reps (sent before any later draw).
     Evicted(Vec<RepId>),
     /// Stage II is over.
     Done(LoaderCounters),
@@ -166,7 +165,7 @@ impl Walkthrough {
             params.mt_cache,
         );
         let (cmd_tx, cmd_rx) = bounded(2);
-        let (reply_tx, reply_rx) = bounded(256);
+        let (reply_tx, reply_rx) = bounded(loader::reply_capacity(skeleton.reps.len()));
         let (ready_tx, ready_rx) = bounded(1);
         // P_I's reps get the footprint less the occluder store.
         let loader_params = RuntimeParams {
@@ -331,12 +330,15 @@ impl Walkthrough {
                         self.draw(d, &view, stamp, renderer, (&mut m, &mut tf), &mut unusable);
                     }
                 }
-                Reply::Draw(d) => {
-                    self.draw(d, &view, stamp, renderer, (&mut m, &mut tf), &mut unusable);
-                }
                 Reply::Missing => m.substituted += 1,
                 Reply::Evicted(reps) => {
                     for r in reps {
+                        // P_I pins the front and its substitutes for the
+                        // frame (`loader::outbox` relies on it).
+                        debug_assert_ne!(
+                            self.drawn_stamp[r as usize], stamp,
+                            "rep {r} evicted in the frame that draws it"
+                        );
                         renderer.evict(r);
                         self.trees.evict(r);
                     }

@@ -358,8 +358,11 @@ impl Loader {
         self.ends_in_time(self.costs.overhead_s + len as f64 * self.costs.per_byte_s)
     }
 
+    /// Whether work of `need_s` seconds started now ends before the next
+    /// fetch command: always while P_R has a group of draws it has not
+    /// started (it draws before it asks again), else as the pacing expects.
     pub(super) fn ends_in_time(&self, need_s: f64) -> bool {
-        self.pacing.ends_in_time(self.clock.now(), need_s)
+        self.out.p_r_busy() || self.pacing.ends_in_time(self.clock.now(), need_s)
     }
 
     /// One read from the queue `queue` picks (the next rep still wanted), and
