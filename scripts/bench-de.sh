@@ -7,7 +7,8 @@
 # at ε 2 px is 109 MiB (4.7%), so 7.5% (173 MiB, 1.6 times it) is the same situation, and
 # 1.2% is below the median front (see docs/results.md). Each step's wall time and peak RSS
 # are printed (`/usr/bin/time`); the tables go to out/de/.
-# Needs about 10 GiB of memory and 5 GiB of disk (the GLB, the scene and its staging copy).
+# Peak RSS: 23 MiB generating, 0.5 GiB building, 2.5 GiB walking in-core; about 4 GiB of disk
+# (the 2.4 GiB GLB while it builds, the 0.8 GiB scene and its staging copy).
 # Usage: scripts/bench-de.sh [SEED] [PATH-KINDS] [DISKS] [FRAMES] [BUDGETS] [MODES]
 #   defaults: 2 flythrough,approach,orbit ssd,hdd 600 7.5% incore,nopre,pre
 #   the footprint sweep: scripts/bench-de.sh 2 flythrough ssd 600 1.2%,2.5%,5%,7.5%,10%
