@@ -478,15 +478,21 @@ impl Loader {
 
     /// Reply `r`, after the draws and evictions before it.
     fn send(&mut self, r: Reply) -> Result<(), RendererGone> {
-        let ev = self.res.has_evicted().then(|| self.res.take_evicted());
-        self.out.send(ev, r, self.clock.as_ref())
+        self.hand_over_evictions();
+        self.out.send(r, self.clock.as_ref())
     }
 
-    /// Draw `d` (grouped with the draws around it), after the evictions
-    /// before it.
+    /// Draw `d` (grouped), after the evictions before it.
     fn send_draw(&mut self, d: Draw) -> Result<(), RendererGone> {
-        let ev = self.res.has_evicted().then(|| self.res.take_evicted());
-        self.out.draw(ev, d, self.clock.as_ref())
+        self.hand_over_evictions();
+        self.out.draw(d, self.clock.as_ref())
+    }
+
+    /// The reps evicted since the last reply go with the next message.
+    fn hand_over_evictions(&mut self) {
+        if self.res.has_evicted() {
+            self.out.evicted(self.res.take_evicted());
+        }
     }
 
     /// Draws the nearest resident ancestor in place of `r`.

@@ -23,7 +23,6 @@
 //! fetch command cannot come before it has drawn them
 //! ([`Outbox::p_r_busy`]).
 
-use std::cell::{Cell, RefCell};
 use std::collections::VecDeque;
 
 use crossbeam_channel::Sender;
@@ -53,9 +52,8 @@ pub(super) struct Outbox {
     wait_ms: f64,
     /// The draws in each message sent and maybe not yet received (the
     /// newest last), and their sum.
-    /// (Trimmed as P_R takes them, also from `&self`.)
-    sent: RefCell<VecDeque<usize>>,
-    sent_draws: Cell<usize>,
+    sent: VecDeque<usize>,
+    sent_draws: usize,
 }
 
 impl Outbox {
@@ -65,8 +63,8 @@ impl Outbox {
             group: Vec::new(),
             evicted: Vec::new(),
             wait_ms: 0.0,
-            sent: RefCell::new(VecDeque::new()),
-            sent_draws: Cell::new(0),
+            sent: VecDeque::new(),
+            sent_draws: 0,
         }
     }
 
@@ -77,8 +75,8 @@ impl Outbox {
             _ => 0,
         };
         self.queued_draws();
-        self.sent.borrow_mut().push_back(draws);
-        self.sent_draws.set(self.sent_draws.get() + draws);
+        self.sent.push_back(draws);
+        self.sent_draws += draws;
         match self.tx.try_send(r) {
             Ok(()) => Ok(()),
             Err(crossbeam_channel::TrySendError::Full(r)) => {
@@ -104,26 +102,20 @@ impl Outbox {
         self.put(Reply::Draws(g), clock)
     }
 
+    /// Reps evicted since the last reply: they go out with the next
+    /// message, before the group.
+    pub(super) fn evicted(&mut self, reps: Vec<RepId>) {
+        self.evicted.extend(reps);
+    }
+
     /// Reply `r`, after the reps evicted and the draws grouped before it.
-    pub(super) fn send(
-        &mut self,
-        evicted: Option<Vec<RepId>>,
-        r: Reply,
-        clock: &dyn Clock,
-    ) -> Result<(), RendererGone> {
-        self.evicted.extend(evicted.unwrap_or_default());
+    pub(super) fn send(&mut self, r: Reply, clock: &dyn Clock) -> Result<(), RendererGone> {
         self.flush(clock)?;
         self.put(r, clock)
     }
 
-    /// Draw `d`, grouped; the reps evicted before it go with the group.
-    pub(super) fn draw(
-        &mut self,
-        evicted: Option<Vec<RepId>>,
-        d: Draw,
-        clock: &dyn Clock,
-    ) -> Result<(), RendererGone> {
-        self.evicted.extend(evicted.unwrap_or_default());
+    /// Draw `d`, grouped.
+    pub(super) fn draw(&mut self, d: Draw, clock: &dyn Clock) -> Result<(), RendererGone> {
         self.group.push(d);
         if self.group.len() >= DRAW_BATCH || self.tx.is_empty() {
             self.flush(clock)?;
@@ -132,20 +124,18 @@ impl Outbox {
     }
 
     /// Draws sent that P_R has not taken yet (messages are taken in order).
-    pub(super) fn queued_draws(&self) -> usize {
-        let mut sent = self.sent.borrow_mut();
-        while sent.len() > self.tx.len() {
-            let taken = sent.pop_front().unwrap_or(0);
-            self.sent_draws.set(self.sent_draws.get() - taken);
+    pub(super) fn queued_draws(&mut self) -> usize {
+        while self.sent.len() > self.tx.len() {
+            self.sent_draws -= self.sent.pop_front().unwrap_or(0);
         }
-        self.sent_draws.get()
+        self.sent_draws
     }
 
     /// Whether P_R has at least a full group of draws it has not started:
     /// its next fetch command is not about to come, whatever the pacing
     /// expected (a frame that draws a large front takes longer than the
     /// frame period).
-    pub(super) fn p_r_busy(&self) -> bool {
+    pub(super) fn p_r_busy(&mut self) -> bool {
         self.queued_draws() >= DRAW_BATCH
     }
 
@@ -187,18 +177,18 @@ mod tests {
         let clock = crate::clock::SystemClock;
         let mut out = Outbox::new(tx);
         // P_R has nothing to draw: the first draw goes out alone.
-        out.draw(None, d(1), &clock).unwrap();
+        out.draw(d(1), &clock).unwrap();
         // Not taken yet: the next ones wait in a group.
-        out.draw(None, d(2), &clock).unwrap();
-        out.draw(None, d(3), &clock).unwrap();
+        out.draw(d(2), &clock).unwrap();
+        out.draw(d(3), &clock).unwrap();
         assert_eq!(seen(&rx), ["D[1]"]);
         // P_R took everything: the next draw sends the group with it.
-        out.draw(None, d(4), &clock).unwrap();
+        out.draw(d(4), &clock).unwrap();
         assert_eq!(seen(&rx), ["D[2, 3, 4]"]);
         // A full group goes out even while P_R is busy.
-        out.draw(None, d(5), &clock).unwrap();
+        out.draw(d(5), &clock).unwrap();
         for r in 6..6 + DRAW_BATCH as RepId {
-            out.draw(None, d(r), &clock).unwrap();
+            out.draw(d(r), &clock).unwrap();
         }
         let s = seen(&rx);
         assert_eq!(s.len(), 2);
@@ -210,13 +200,16 @@ mod tests {
         let (tx, rx) = bounded(16);
         let clock = crate::clock::SystemClock;
         let mut out = Outbox::new(tx);
-        out.draw(Some(vec![7]), d(1), &clock).unwrap();
-        out.draw(None, d(2), &clock).unwrap();
+        out.evicted(vec![7]);
+        out.draw(d(1), &clock).unwrap();
+        out.draw(d(2), &clock).unwrap();
         // Evictions while a group fills do not break it up.
-        out.draw(Some(vec![9]), d(3), &clock).unwrap();
-        out.draw(None, d(4), &clock).unwrap();
+        out.evicted(vec![9]);
+        out.draw(d(3), &clock).unwrap();
+        out.draw(d(4), &clock).unwrap();
         // Another reply sends the evictions and the group before it.
-        out.send(Some(vec![8]), Reply::Missing, &clock).unwrap();
+        out.evicted(vec![8]);
+        out.send(Reply::Missing, &clock).unwrap();
         assert_eq!(seen(&rx), ["E[7]", "D[1]", "E[9, 8]", "D[2, 3, 4]", "M"]);
         assert_eq!(out.take_wait_ms(), 0.0);
     }
@@ -230,9 +223,10 @@ mod tests {
         let clock = crate::clock::SystemClock;
         let mut out = Outbox::new(tx);
         for r in 0..reps as RepId {
-            out.draw(Some(vec![r + 100_000]), d(r), &clock).unwrap();
+            out.evicted(vec![r + 100_000]);
+            out.draw(d(r), &clock).unwrap();
         }
-        out.send(None, Reply::Missing, &clock).unwrap();
+        out.send(Reply::Missing, &clock).unwrap();
         assert_eq!(out.take_wait_ms(), 0.0);
         assert!(rx.len() <= 2 * 12 + 1, "{}", rx.len());
     }
@@ -245,7 +239,7 @@ mod tests {
         let clock = crate::clock::SystemClock;
         let mut out = Outbox::new(tx);
         for r in 0..1 + 3 * DRAW_BATCH as RepId {
-            out.draw(None, d(r), &clock).unwrap();
+            out.draw(d(r), &clock).unwrap();
         }
         assert_eq!(rx.len(), 4);
         assert_eq!(out.take_wait_ms(), 0.0);
@@ -266,9 +260,9 @@ mod tests {
         let mut out = Outbox::new(tx);
         assert!(!out.p_r_busy());
         for r in 0..2 * DRAW_BATCH as RepId {
-            out.draw(None, d(r), &clock).unwrap();
+            out.draw(d(r), &clock).unwrap();
         }
-        out.send(None, Reply::Missing, &clock).unwrap();
+        out.send(Reply::Missing, &clock).unwrap();
         // One draw alone (P_R was waiting), a full group, then the rest.
         assert_eq!(out.queued_draws(), 2 * DRAW_BATCH);
         assert!(out.p_r_busy());
@@ -286,6 +280,6 @@ mod tests {
         drop(rx);
         let clock = crate::clock::SystemClock;
         let mut out = Outbox::new(tx);
-        assert!(out.draw(None, d(1), &clock).is_err());
+        assert!(out.draw(d(1), &clock).is_err());
     }
 }

@@ -335,7 +335,7 @@ impl Loader {
     /// the next fetch command is due. A read that overruns delays P_R's
     /// next frame by the overrun: the estimate is per read, so that a small
     /// rep still fits at the end of a frame where a large one would not.
-    pub(super) fn first_block_in_time(&self, r: RepId) -> bool {
+    pub(super) fn first_block_in_time(&mut self, r: RepId) -> bool {
         self.ends_in_time(self.first_block_s(r))
     }
 
@@ -354,14 +354,14 @@ impl Loader {
     }
 
     /// The same for `len` bytes read on from where the last read ended.
-    pub(super) fn fits_in_frame_sequential(&self, len: u64) -> bool {
+    pub(super) fn fits_in_frame_sequential(&mut self, len: u64) -> bool {
         self.ends_in_time(self.costs.overhead_s + len as f64 * self.costs.per_byte_s)
     }
 
     /// Whether work of `need_s` seconds started now ends before the next
     /// fetch command: always while P_R has a group of draws it has not
     /// started (it draws before it asks again), else as the pacing expects.
-    pub(super) fn ends_in_time(&self, need_s: f64) -> bool {
+    pub(super) fn ends_in_time(&mut self, need_s: f64) -> bool {
         self.out.p_r_busy() || self.pacing.ends_in_time(self.clock.now(), need_s)
     }
 
