@@ -297,6 +297,11 @@ frame_metrics! {
         /// P_I's time waiting for room on the full reply channel (P_R
         /// still drawing what it was sent) since the previous frame.
         loader.reply_wait_ms: f64 => sum,
+        /// Reads by pages on a seek-bound disk: reps copied out of a page
+        /// already held (no read), and the pages' bytes at the end of Stage
+        /// II (part of `resident_bytes`).
+        loader.page_hits: u32 => sum,
+        loader.page_bytes: u64,
     }
 }
 
@@ -562,7 +567,7 @@ mod tests {
         // the column list generated them (P_I's counters among P_R's).
         assert_eq!(
             CSV_HEADER,
-            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,occluders,occluded_reps,occluder_tris,occlusion_ms,occluder_bytes,tolerance_px,front_tries,fade_in,fade_out,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms,prefetch_noroom,prefetch_waits,idle_ms,lookahead_ms,coalesce_gap,expand_ms,expanded_bytes,mt_trees,mt_cut_arcs,mt_tris,mt_adapt,mt_reads,mt_partitions,mt_read_bytes,mt_misses,mt_nodes,reply_wait_ms"
+            "frame,mode,frame_ms,front_ms,wait_ms,front_reps,front_tris,front_bytes,missing_reps,stage2_bytes,prefetch_bytes,resident_bytes,max_resident_bytes,budget_bytes,evictions,substituted,drawn_reps,drawn_tris,read_errors,nodes_visited,occluders,occluded_reps,occluder_tris,occlusion_ms,occluder_bytes,tolerance_px,front_tries,fade_in,fade_out,miss_lod,miss_hier,miss_new,stage2_io_ms,prefetch_io_ms,gpu_bytes,prefetch_queue,vdt_trees,adapt,vdt_tris,vdt_misses,metas_loaded,vdt_bytes,vdt_ms,skipped_bytes,resumed,wasted_bytes,stage2_seeks,prefetch_seeks,late_reps,late_bytes,classify_ms,prefetch_noroom,prefetch_waits,idle_ms,lookahead_ms,coalesce_gap,expand_ms,expanded_bytes,mt_trees,mt_cut_arcs,mt_tris,mt_adapt,mt_reads,mt_partitions,mt_read_bytes,mt_misses,mt_nodes,reply_wait_ms,page_hits,page_bytes"
         );
         let f = FrameMetrics {
             frame: 7,
@@ -581,7 +586,7 @@ mod tests {
             "{row}"
         );
         assert!(
-            row.ends_with(",0,0,0.500,0,0,0.000,0.000,0,0.000,0,0,0,0,0,0,0,0,0,0,0.000"),
+            row.ends_with(",0,0,0.500,0,0,0.000,0.000,0,0.000,0,0,0,0,0,0,0,0,0,0,0.000,0,0"),
             "{row}"
         );
     }

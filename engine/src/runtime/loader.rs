@@ -17,6 +17,7 @@ mod late;
 mod misses;
 mod outbox;
 mod pacing;
+mod pages;
 #[cfg(test)]
 mod plan_tests;
 mod span;
@@ -42,6 +43,7 @@ use misses::MissAccount;
 use outbox::Outbox;
 pub(super) use outbox::capacity as reply_capacity;
 use pacing::Pacing;
+use pages::PageCache;
 use span::{FileOrder, IoCosts, Partial, preempted};
 use sweep::Sweep;
 
@@ -114,6 +116,8 @@ pub(super) struct Loader {
     gap_buf: Vec<u8>,
     /// A prefetch read preempted by a fetch command (its bytes reserved).
     partial: Option<Partial>,
+    /// Stored bytes of whole pages read on a seek-bound disk.
+    pages: PageCache,
     misses: MissAccount,
     /// P_I has no time for another prefetch read before the next fetch
     /// command (the candidates stay for the frames after it).
@@ -152,6 +156,7 @@ impl Loader {
             skeleton,
             index,
             source,
+            pages: PageCache::new(params.page_bytes),
             params,
             cmds,
             out: Outbox::new(replies),
@@ -360,6 +365,7 @@ impl Loader {
     /// Stage II for one front, and the reps P_R draws fading out.
     fn fetch(&mut self, front: &[RepId], fading: &[RepId]) -> Result<(), RendererGone> {
         self.res.start_stage2(front);
+        self.plan_pages();
         // Fading out: drawn first, pinned for the frame (the footprint
         // counts both reps of a switch); an evicted one is not read again.
         // A fade takes only room the front does not need: the whole front,
@@ -454,12 +460,14 @@ impl Loader {
                 Err(_) => self.substitute(r)?,
             }
         }
-        self.stats.resident_bytes = self.res.bytes();
+        self.stats.resident_bytes = self.res.bytes() + self.pages.bytes();
+        self.stats.page_bytes = self.pages.bytes();
         self.stats.prefetch_queue = self.classes.bins.len() as u32;
-        self.stats.coalesce_gap = u32::try_from(self.max_gap()).unwrap_or(u32::MAX);
+        let gap = self.costs.max_gap(self.params.coalesce_max_gap, 64 << 10);
+        self.stats.coalesce_gap = u32::try_from(gap).unwrap_or(u32::MAX);
         #[cfg(debug_assertions)]
         {
-            if let Err(e) = self.res.validate() {
+            if let Err(e) = self.res.validate().and_then(|()| self.pages.validate()) {
                 panic!("P_I's resident set is inconsistent: {e}");
             }
             // Between reads, only a preempted prefetch read holds a
@@ -472,7 +480,7 @@ impl Loader {
         self.out.flush(self.clock.as_ref())?;
         self.stats.reply_wait_ms += self.out.take_wait_ms();
         let stats = std::mem::take(&mut self.stats);
-        self.stats.max_resident_bytes = self.res.bytes();
+        self.stats.max_resident_bytes = self.res.bytes() + self.pages.bytes();
         self.send(Reply::Done(stats))
     }
 
@@ -514,21 +522,6 @@ impl Loader {
         self.send(Reply::Missing)
     }
 
-    /// Makes room for `need` more bytes under the budget
-    /// ([`ResidentSet::make_room`]: the eviction rule).
-    fn make_room(&mut self, need: u64, purpose: Purpose) -> bool {
-        let budget = self.params.budget_bytes;
-        let cap = (budget as f64 * f64::from(self.params.prefetch.speculative_share)) as u64;
-        let (evictions, wasted) = (self.res.evictions(), self.res.wasted_bytes());
-        let skeleton = &self.skeleton;
-        let ok = self.res.make_room(need, budget, purpose, cap, |r| {
-            skeleton.reps[r as usize].resident_len()
-        });
-        self.stats.evictions += (self.res.evictions() - evictions) as u32;
-        self.stats.wasted_bytes += self.res.wasted_bytes() - wasted;
-        ok
-    }
-
     /// Loads rep `r` block by block under the budget.
     fn load(&mut self, r: RepId, purpose: Purpose) -> Result<Arc<[u8]>, LoadError> {
         if self.failed[r as usize] {
@@ -563,8 +556,16 @@ impl Loader {
                 }
                 // Reserve first: bytes being loaded count against the budget.
                 self.res.reserve(len);
-                self.stats.max_resident_bytes = self.stats.max_resident_bytes.max(self.res.bytes());
-                (vec![0u8; read as usize], 0)
+                self.note_resident();
+                let mut buf = vec![0u8; read as usize];
+                // On a seek-bound disk, through the page it lies in.
+                let done =
+                    if read == u64::from(rec.len) && self.read_by_pages(&rec, &mut buf, purpose) {
+                        buf.len()
+                    } else {
+                        0
+                    };
+                (buf, done)
             }
         };
         let block = self.params.block_bytes;

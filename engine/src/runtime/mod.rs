@@ -28,6 +28,8 @@ mod fade_tests;
 mod fault_tests;
 mod loader;
 mod mts;
+#[cfg(test)]
+mod page_tests;
 mod params;
 pub mod resident;
 mod select;

@@ -117,6 +117,17 @@ pub struct RuntimeParams {
     /// Longest gap between two wanted reps that P_I reads through instead
     /// of seeking over (the break-even gap is learnt; this caps it; 0: off).
     pub coalesce_max_gap: u64,
+    /// Reads by pages (0, the default: off): where a seek costs at least
+    /// this many bytes' transfer (learnt), P_I reads the aligned page of
+    /// this size a rep lies in and keeps it, stored, in `page_share` of the
+    /// budget (see `loader::pages`). Off on a fast disk by itself. Off by
+    /// default: on the DE-size plant on `hdd` it lowers the median frame
+    /// but not the p99, and on the PP-size plant its share of a tight
+    /// budget costs more misses than it saves (docs/results.md).
+    pub page_bytes: u64,
+    /// The share of the budget that pages may take from prefetching (a
+    /// demand fetch takes it back).
+    pub page_share: f32,
     /// Stall deadline (0: off, the paper's protocol: P_R waits for every
     /// missing rep). Otherwise Stage II starts a read only when its first
     /// block ends within this many seconds of the fetch command; the reps
@@ -153,6 +164,8 @@ impl Default for RuntimeParams {
             vdt_pool_bytes: 4 << 20,
             mt_cache: crate::mt::cache::CacheMode::PC,
             coalesce_max_gap: 1 << 20,
+            page_bytes: 0,
+            page_share: 0.25,
             stall_deadline_s: 0.0,
             occlusion_bytes: 0,
             governor: None,
@@ -212,6 +225,12 @@ impl RuntimeParams {
             if g.max_tolerance_px < self.tolerance_px {
                 return bad("the governor's largest tolerance is below the tolerance");
             }
+        }
+        if self.page_bytes != 0 && !(4096..=16 << 20).contains(&self.page_bytes) {
+            return bad("page size must be 0 (off) or in 4 KiB..=16 MiB");
+        }
+        if !(self.page_share.is_finite() && (0.0..=0.9).contains(&self.page_share)) {
+            return bad("the pages' share of the budget must be in [0, 0.9]");
         }
         if self.block_bytes < 512 {
             return bad("block size must be at least 512 bytes");

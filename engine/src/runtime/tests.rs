@@ -30,7 +30,7 @@ pub(super) fn wide(n: u32) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
 }
 
 /// [`wide`] with its mesh payloads compressed.
-fn wide_compressed(n: u32) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
+pub(super) fn wide_compressed(n: u32) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
     let (reps, children) = wide_shape(n);
     scene_of(build_compressed(&reps, &children).0)
 }
@@ -396,9 +396,9 @@ fn a_renderer_panic_mid_frame_does_not_hang_shutdown() {
 }
 
 /// Counts the reads that do not continue where the previous one ended.
-struct SeekCounter {
-    inner: Arc<dyn ByteSource>,
-    state: std::sync::Mutex<(Option<u64>, u64)>,
+pub(super) struct SeekCounter {
+    pub(super) inner: Arc<dyn ByteSource>,
+    pub(super) state: std::sync::Mutex<(Option<u64>, u64)>,
 }
 
 impl ByteSource for SeekCounter {

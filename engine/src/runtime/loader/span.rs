@@ -237,8 +237,12 @@ impl Loader {
     }
 
     /// The longest gap P_I reads through now (64 KiB until a transfer rate
-    /// has been seen: reading through is how it is first seen).
+    /// has been seen: reading through is how it is first seen); none while
+    /// reading by pages (a page holds the neighbours).
     pub(super) fn max_gap(&self) -> u64 {
+        if self.pages_on() {
+            return 0;
+        }
         self.costs.max_gap(self.params.coalesce_max_gap, 64 << 10)
     }
 
@@ -347,7 +351,10 @@ impl Loader {
         let rec = self.skeleton.reps[r as usize];
         let (at, bytes) = match &self.partial {
             Some(p) if p.rep == r => (rec.offset + p.done as u64, (p.buf.len() - p.done) as u64),
-            _ => (rec.offset, u64::from(rec.len)),
+            _ => match self.page_read_s(&rec) {
+                Some(s) => return s,
+                None => (rec.offset, u64::from(rec.len)),
+            },
         };
         self.costs
             .first_block_estimate(at, bytes, self.params.block_bytes as u64)

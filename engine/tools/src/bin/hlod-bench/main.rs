@@ -144,6 +144,14 @@ struct Args {
     /// break-even gap is learnt; this caps it); 0 turns coalescing off.
     #[arg(long, default_value = "1MiB")]
     coalesce_gap: String,
+    /// Reads by pages of this size (e.g. 128KiB) where a seek costs at
+    /// least a page's transfer (learnt; a fast disk never does); 0 (the
+    /// default) turns pages off.
+    #[arg(long, default_value = "0")]
+    page: String,
+    /// The share of the budget that pages may take from prefetching.
+    #[arg(long, default_value_t = 0.25, value_parser = in_range(0.0f32, 0.9))]
+    page_share: f32,
     /// Stall deadline in ms (0: off, the paper's protocol, P_R waits for
     /// every missing rep): Stage II reads only what it can finish this long
     /// after the fetch command; the rest is drawn as its nearest resident
@@ -240,6 +248,7 @@ fn run(a: Args) -> Result<()> {
     let data_bytes: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
     let vdt_pool = parse_size("--vdt-pool", &a.vdt_pool, data_bytes, 100.0)?;
     let coalesce_gap = size_or_off("--coalesce-gap", &a.coalesce_gap, data_bytes)?;
+    let page_bytes = size_or_off("--page", &a.page, data_bytes)?;
     let sweep_bytes = u32::try_from(size_or_off("--sweep", &a.sweep, data_bytes)?)
         .context("--sweep: at most 4 GiB")?;
     let budgets: Vec<u64> = match &a.budgets {
@@ -309,6 +318,8 @@ fn run(a: Args) -> Result<()> {
             format!("--mt-cache {:?}: use p-c, p-cc, p-nc or np-nc", a.mt_cache)
         })?,
         coalesce_max_gap: coalesce_gap,
+        page_bytes,
+        page_share: a.page_share,
         stall_deadline_s: a.stall_deadline / 1e3,
         governor: (a.governor || a.max_tris > 0 || a.max_frame_ms > 0.0).then_some(
             engine::governor::GovernorParams {

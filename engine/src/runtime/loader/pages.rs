@@ -1,0 +1,353 @@
+//! Pages of co-used reps: the I/O granularity of a seek-bound disk.
+//!
+//! The layout stores the reps of one selection band along a Morton curve
+//! (`hlod-build`'s `layout`), so an aligned window of the file — a *page* —
+//! holds reps of neighbouring nodes that enter the front at the same
+//! distance: the reps one turn or one approach misses together. Where a seek
+//! costs more than a page's transfer (the learnt break-even gap is at least
+//! a page), P_I reads the whole page a rep lies in and keeps its stored
+//! (compressed) bytes in a share of the budget ([`PageCache`]); a later
+//! read of any rep in it is a copy and an expansion, not a seek. The page
+//! bytes count in the footprint exactly like the reps: the reps' room is
+//! the budget less the pages' bytes, a demand fetch evicts pages before it
+//! gives up, and a page is cached only where it fits beside what is
+//! resident. On a fast disk (break-even gap under a page) pages are off
+//! and the cache is emptied.
+
+use std::sync::Arc;
+
+use lru::LruCache;
+
+use super::{Loader, Purpose};
+use crate::format::RepRecord;
+use crate::runtime::Mode;
+
+/// Stored bytes of recently read pages, least recently used first out.
+#[derive(Debug)]
+pub(super) struct PageCache {
+    page_bytes: u64,
+    pages: LruCache<u64, Arc<[u8]>>,
+    bytes: u64,
+    /// The most bytes the pages may hold this frame.
+    cap: u64,
+}
+
+impl PageCache {
+    /// An empty cache of pages of `page_bytes` (0: off).
+    pub(super) fn new(page_bytes: u64) -> Self {
+        Self {
+            page_bytes,
+            pages: LruCache::unbounded(),
+            bytes: 0,
+            cap: 0,
+        }
+    }
+
+    /// Bytes held (part of the footprint).
+    pub(super) fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    /// The pages `offset..offset + len` lies in (first, last).
+    pub(super) fn span(&self, offset: u64, len: u64) -> (u64, u64) {
+        let p = self.page_bytes.max(1);
+        (offset / p, (offset + len.max(1) - 1) / p)
+    }
+
+    /// Whether every page of `offset..offset + len` is held (no use recorded).
+    pub(super) fn covers(&self, offset: u64, len: u64) -> bool {
+        let (a, b) = self.span(offset, len);
+        (a..=b).all(|p| self.pages.contains(&p))
+    }
+
+    /// The first page of `offset..offset + len` not held.
+    pub(super) fn first_missing(&self, offset: u64, len: u64) -> Option<u64> {
+        let (a, b) = self.span(offset, len);
+        (a..=b).find(|p| !self.pages.contains(p))
+    }
+
+    /// Copies `offset..offset + buf.len()` out of the held pages (each
+    /// used now); false when one is not held.
+    pub(super) fn copy_out(&mut self, offset: u64, buf: &mut [u8]) -> bool {
+        if !self.covers(offset, buf.len() as u64) {
+            return false;
+        }
+        let mut at = 0usize;
+        while at < buf.len() {
+            let pos = offset + at as u64;
+            let (page, within) = (pos / self.page_bytes, (pos % self.page_bytes) as usize);
+            let Some(data) = self.pages.get(&page) else {
+                return false;
+            };
+            if within >= data.len() {
+                return false;
+            }
+            let n = (data.len() - within).min(buf.len() - at);
+            buf[at..at + n].copy_from_slice(&data[within..within + n]);
+            at += n;
+        }
+        true
+    }
+
+    /// Holds page `page` (its bytes; room made first).
+    pub(super) fn insert(&mut self, page: u64, data: Arc<[u8]>) {
+        self.bytes += data.len() as u64;
+        if let Some(old) = self.pages.put(page, data) {
+            self.bytes -= old.len() as u64;
+        }
+    }
+
+    /// Drops the least recently used page; its bytes, or `None` when empty.
+    pub(super) fn evict_lru(&mut self) -> Option<u64> {
+        let (_, data) = self.pages.pop_lru()?;
+        self.bytes -= data.len() as u64;
+        Some(data.len() as u64)
+    }
+
+    /// The most bytes the pages may hold.
+    pub(super) fn cap(&self) -> u64 {
+        self.cap
+    }
+
+    /// Sets the most bytes the pages may hold; least recently used pages
+    /// over it go.
+    pub(super) fn set_cap(&mut self, cap: u64) {
+        self.cap = cap;
+        while self.bytes > cap && self.evict_lru().is_some() {}
+    }
+
+    /// Drops every page.
+    pub(super) fn clear(&mut self) {
+        self.pages.clear();
+        self.bytes = 0;
+    }
+
+    /// The byte count equals the pages' sizes, each at most a page.
+    #[cfg(any(test, debug_assertions))]
+    pub(super) fn validate(&self) -> Result<(), String> {
+        let sum: u64 = self.pages.iter().map(|(_, d)| d.len() as u64).sum();
+        if sum != self.bytes {
+            return Err(format!("page bytes {} but pages hold {sum}", self.bytes));
+        }
+        if let Some((p, _)) = self
+            .pages
+            .iter()
+            .find(|(_, d)| d.len() as u64 > self.page_bytes)
+        {
+            return Err(format!("page {p} is longer than a page"));
+        }
+        Ok(())
+    }
+}
+
+impl Loader {
+    /// Whether reads go by pages now: pages are on and a seek costs at
+    /// least a page's transfer (learnt).
+    pub(super) fn paging(&self) -> bool {
+        let p = self.params.page_bytes;
+        p > 0
+            && self.params.mode != Mode::Incore
+            && self
+                .costs
+                .max_gap(self.params.coalesce_max_gap.max(p), 64 << 10)
+                >= p
+    }
+
+    /// The pages' room this frame (0 while not paging).
+    pub(super) fn page_cap(&self) -> u64 {
+        if self.paging() { self.pages.cap() } else { 0 }
+    }
+
+    /// Sets the pages' room for the next frame: `page_share` of the
+    /// budget while paging. (Measured and rejected: a share that shrinks
+    /// when the front is large, to give prefetching the room — the reads
+    /// then fell back to one seek per rep just in the dense stretches.)
+    pub(super) fn plan_pages(&mut self) {
+        let cap = if self.paging() {
+            (self.params.budget_bytes as f64 * f64::from(self.params.page_share)) as u64
+        } else {
+            0
+        };
+        self.pages.set_cap(cap);
+    }
+
+    /// Whether rep `rec` is read by pages: pages on this frame, and stored
+    /// in at most a page (a larger rep is read as it is).
+    pub(super) fn by_pages(&self, rec: &RepRecord) -> bool {
+        !rec.is_paged() && u64::from(rec.len) <= self.params.page_bytes && self.pages_on()
+    }
+
+    /// Whether reads go by pages this frame: paging, and room for a page
+    /// (else reads go through short gaps as on a fast disk).
+    pub(super) fn pages_on(&self) -> bool {
+        self.paging() && self.pages.cap() >= self.params.page_bytes
+    }
+
+    /// Fills `buf` with the stored bytes of `rec` through the page cache,
+    /// reading each missing page whole (one seek). False — nothing read or
+    /// copied — when it is not read by pages or a page finds no room (it is
+    /// then read as it is); a read error also gives false, and the direct
+    /// read that follows reports it.
+    pub(super) fn read_by_pages(
+        &mut self,
+        rec: &RepRecord,
+        buf: &mut [u8],
+        purpose: Purpose,
+    ) -> bool {
+        if !self.paging() {
+            if self.pages.bytes() > 0 {
+                self.pages.clear();
+            }
+            return false;
+        }
+        if !self.by_pages(rec) {
+            return false;
+        }
+        let hit = self.pages.covers(rec.offset, u64::from(rec.len));
+        if !self.fill_pages(rec, purpose) {
+            return false;
+        }
+        if hit {
+            self.stats.page_hits += 1;
+        }
+        self.pages.copy_out(rec.offset, buf)
+    }
+
+    /// Reads the missing pages of `rec` whole; false when one found no room
+    /// or the read failed.
+    fn fill_pages(&mut self, rec: &RepRecord, purpose: Purpose) -> bool {
+        let len = u64::from(rec.len);
+        while let Some(page) = self.pages.first_missing(rec.offset, len) {
+            let start = page * self.params.page_bytes;
+            let n = self
+                .params
+                .page_bytes
+                .min(self.source.len().saturating_sub(start));
+            if n == 0 || !self.page_room(n) {
+                return false;
+            }
+            let mut data = vec![0u8; n as usize];
+            let t = self.clock.now();
+            if self.source.read_at(start, &mut data).is_err() {
+                return false;
+            }
+            let took = self.clock.now() - t;
+            self.observe(start, n as usize, took, purpose);
+            match purpose {
+                Purpose::Demand => self.stats.stage2_bytes += n,
+                Purpose::Prefetch => self.stats.prefetch_bytes += n,
+            }
+            self.pages.insert(page, data.into());
+            self.note_resident();
+        }
+        true
+    }
+
+    /// Makes room for a page of `n` bytes: within the pages' share and
+    /// beside what is resident, evicting pages (never reps).
+    fn page_room(&mut self, n: u64) -> bool {
+        let (cap, budget) = (self.page_cap(), self.params.budget_bytes);
+        while self.pages.bytes() + n > cap || self.res.bytes() + self.pages.bytes() + n > budget {
+            if self.pages.evict_lru().is_none() {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// The reps' room under `budget` for a read of `purpose`: the budget
+    /// less the pages' bytes, and a prefetch also leaves the pages' share.
+    pub(super) fn rep_budget(&self, budget: u64, purpose: Purpose) -> u64 {
+        let pages = self.pages.bytes();
+        let held = match purpose {
+            Purpose::Demand => pages,
+            Purpose::Prefetch => pages.max(self.page_cap()),
+        };
+        budget.saturating_sub(held)
+    }
+
+    /// Makes room for `need` more bytes for a rep under the budget less the
+    /// pages ([`rep_budget`](Self::rep_budget); the eviction rule is
+    /// [`crate::runtime::resident::ResidentSet::make_room`]). A demand read
+    /// takes the pages' room before it gives up.
+    pub(super) fn make_room(&mut self, need: u64, purpose: Purpose) -> bool {
+        let budget = self.params.budget_bytes;
+        let cap = (budget as f64 * f64::from(self.params.prefetch.speculative_share)) as u64;
+        let (evictions, wasted) = (self.res.evictions(), self.res.wasted_bytes());
+        let ok = loop {
+            let room = self.rep_budget(budget, purpose);
+            let skeleton = &self.skeleton;
+            let ok = self.res.make_room(need, room, purpose, cap, |r| {
+                skeleton.reps[r as usize].resident_len()
+            });
+            if ok || purpose == Purpose::Prefetch || !self.yield_pages() {
+                break ok;
+            }
+        };
+        self.stats.evictions += (self.res.evictions() - evictions) as u32;
+        self.stats.wasted_bytes += self.res.wasted_bytes() - wasted;
+        ok
+    }
+
+    /// Gives a demand read that found no room the pages' room (all of it:
+    /// the front does not fit beside them); false when none is held.
+    pub(super) fn yield_pages(&mut self) -> bool {
+        let any = self.pages.bytes() > 0;
+        self.pages.clear();
+        any
+    }
+
+    /// The expected time of rep `rec`'s read by pages: nothing but a copy
+    /// when its pages are held, else the first missing page's seek and
+    /// transfer. `None` when it is not read by pages.
+    pub(super) fn page_read_s(&self, rec: &RepRecord) -> Option<f64> {
+        if !self.by_pages(rec) {
+            return None;
+        }
+        let len = u64::from(rec.len);
+        Some(match self.pages.first_missing(rec.offset, len) {
+            None => self.costs.overhead_s,
+            Some(page) => {
+                let p = self.params.page_bytes;
+                self.costs.first_block_estimate(page * p, p, p)
+            }
+        })
+    }
+
+    /// Records the footprint now (reps and pages) in the frame's maximum.
+    pub(super) fn note_resident(&mut self) {
+        let now = self.res.bytes() + self.pages.bytes();
+        self.stats.max_resident_bytes = self.stats.max_resident_bytes.max(now);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pages_copy_across_boundaries_and_evict_oldest_first() {
+        let mut c = PageCache::new(4);
+        assert_eq!(c.span(3, 2), (0, 1));
+        assert_eq!(c.span(4, 4), (1, 1));
+        assert_eq!(c.first_missing(2, 4), Some(0));
+        c.insert(0, Arc::from(&[0u8, 1, 2, 3][..]));
+        c.insert(1, Arc::from(&[4u8, 5, 6, 7][..]));
+        c.insert(2, Arc::from(&[8u8, 9][..]));
+        assert_eq!(c.bytes(), 10);
+        let mut b = [0u8; 6];
+        assert!(c.copy_out(2, &mut b));
+        assert_eq!(b, [2, 3, 4, 5, 6, 7]);
+        // Past the end of the short last page.
+        assert!(!c.copy_out(9, &mut [0u8; 2]));
+        // Page 0 is now the least recently used (page 2 was just looked at).
+        assert_eq!(c.evict_lru(), Some(4));
+        assert!(!c.covers(3, 1));
+        assert_eq!(c.first_missing(2, 7), Some(0));
+        assert_eq!(c.first_missing(4, 5), None);
+        c.validate().unwrap();
+        c.clear();
+        assert_eq!(c.bytes(), 0);
+        c.validate().unwrap();
+    }
+}

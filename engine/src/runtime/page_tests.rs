@@ -1,0 +1,94 @@
+//! Reads by pages on a simulated seek-bound disk (`loader::pages`).
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use super::tests::{SeekCounter, check_frames, clocked, params, pose, wide_compressed};
+use super::*;
+use crate::camera::Pose;
+use crate::metrics::FrameMetrics;
+use crate::render::NoneRenderer;
+
+/// The path: along the row of leaves, turning.
+fn poses() -> Vec<Pose> {
+    (0..40)
+        .map(|i| pose(i as f32 * 1.2, 0.5, 2.0, 1.2 + (i as f32 * 0.3).sin()))
+        .collect()
+}
+
+/// Walks `poses` on a simulated disk of `latency` seeks and `rate` bytes/s;
+/// the frames and the seeks.
+fn walk(
+    mode: Mode,
+    page_bytes: u64,
+    latency: Duration,
+    rate: f64,
+    budget: u64,
+) -> (Vec<FrameMetrics>, u64) {
+    let (skel, mem) = wide_compressed(64);
+    let clock = Arc::new(crate::clock::ManualClock::new());
+    let counter = Arc::new(SeekCounter {
+        inner: clocked(&mem, latency, rate, &clock),
+        state: Default::default(),
+    });
+    let p = RuntimeParams {
+        coalesce_max_gap: 0,
+        page_bytes,
+        block_bytes: 16 << 10,
+        ..params(mode, budget)
+    };
+    let mut w = Walkthrough::start_with_clock(skel, counter.clone(), p, clock).unwrap();
+    let frames = run_path(&mut w, &poses(), &mut NoneRenderer::new(0.0), 0.0).unwrap();
+    drop(w);
+    check_frames(&frames, budget);
+    let seeks = counter.state.lock().unwrap().1;
+    (frames, seeks)
+}
+
+/// Half the reps' footprint, and room for the pages' share to hold four
+/// pages of 4 KiB.
+fn budget() -> u64 {
+    let (skel, _) = wide_compressed(64);
+    skel.reps.iter().map(|r| r.resident_len()).sum::<u64>() / 2 + (64 << 10)
+}
+
+fn total(f: &[FrameMetrics], k: fn(&FrameMetrics) -> u64) -> u64 {
+    f.iter().map(k).sum()
+}
+
+#[test]
+fn pages_on_a_seek_bound_disk_save_seeks_within_the_budget() {
+    let budget = budget();
+    // 10 ms seeks, 30 MB/s: a seek costs 300 KB of transfer, a 4 KiB page
+    // far less.
+    let hdd = (Duration::from_millis(10), 30e6);
+    let (off, off_seeks) = walk(Mode::NoPre, 0, hdd.0, hdd.1, budget);
+    let (on, on_seeks) = walk(Mode::NoPre, 4096, hdd.0, hdd.1, budget);
+    assert_eq!(total(&off, |f| u64::from(f.loader.page_hits)), 0);
+    assert!(off.iter().all(|f| f.loader.page_bytes == 0));
+    assert!(total(&on, |f| u64::from(f.loader.page_hits)) > 0);
+    assert!(on.iter().any(|f| f.loader.page_bytes > 0));
+    // On demand only, P_R waits for every rep: nothing substituted.
+    for f in off.iter().chain(&on) {
+        assert_eq!(f.substituted, 0, "frame {}", f.frame);
+    }
+    assert!(
+        on_seeks * 10 < off_seeks * 8,
+        "seeks: {on_seeks} by pages, {off_seeks} without"
+    );
+    // Prefetching by pages keeps the budget too (timing-dependent beyond
+    // the invariants `walk` checks).
+    let (pre, _) = walk(Mode::Pre, 4096, hdd.0, hdd.1, budget);
+    assert!(total(&pre, |f| u64::from(f.loader.page_hits)) > 0);
+}
+
+#[test]
+fn pages_stay_off_where_a_seek_costs_less_than_a_page() {
+    let budget = budget();
+    // 0.1 ms seeks, 500 MB/s: a seek is worth 50 KB, under a 128 KiB page.
+    for mode in [Mode::NoPre, Mode::Pre] {
+        let (frames, _) = walk(mode, 128 << 10, Duration::from_micros(100), 500e6, budget);
+        assert_eq!(total(&frames, |f| u64::from(f.loader.page_hits)), 0);
+        assert!(frames.iter().all(|f| f.loader.page_bytes == 0));
+    }
+}
