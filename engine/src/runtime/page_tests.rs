@@ -92,3 +92,20 @@ fn pages_stay_off_where_a_seek_costs_less_than_a_page() {
         assert!(frames.iter().all(|f| f.loader.page_bytes == 0));
     }
 }
+
+#[test]
+fn a_share_under_two_pages_reads_by_rep() {
+    let budget = budget();
+    // A quarter of the budget is under two 64 KiB pages: a rep straddling
+    // two pages could not hold both, so reads go by rep.
+    assert!(budget / 4 < 2 * (64 << 10));
+    let (frames, _) = walk(
+        Mode::NoPre,
+        64 << 10,
+        Duration::from_millis(10),
+        30e6,
+        budget,
+    );
+    assert_eq!(total(&frames, |f| u64::from(f.loader.page_hits)), 0);
+    assert!(frames.iter().all(|f| f.loader.page_bytes == 0));
+}

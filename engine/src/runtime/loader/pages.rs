@@ -177,10 +177,11 @@ impl Loader {
         !rec.is_paged() && u64::from(rec.len) <= self.params.page_bytes && self.pages_on()
     }
 
-    /// Whether reads go by pages this frame: paging, and room for a page
-    /// (else reads go through short gaps as on a fast disk).
+    /// Whether reads go by pages this frame: paging, and room for the two
+    /// pages a rep may straddle (else reads go through short gaps as on a
+    /// fast disk; with room for one, its second page would evict its first).
     pub(super) fn pages_on(&self) -> bool {
-        self.paging() && self.pages.cap() >= self.params.page_bytes
+        self.paging() && self.pages.cap() >= 2 * self.params.page_bytes
     }
 
     /// Fills `buf` with the stored bytes of `rec` through the page cache,
