@@ -463,8 +463,7 @@ impl Loader {
         self.stats.resident_bytes = self.res.bytes() + self.pages.bytes();
         self.stats.page_bytes = self.pages.bytes();
         self.stats.prefetch_queue = self.classes.bins.len() as u32;
-        let gap = self.costs.max_gap(self.params.coalesce_max_gap, 64 << 10);
-        self.stats.coalesce_gap = u32::try_from(gap).unwrap_or(u32::MAX);
+        self.stats.coalesce_gap = u32::try_from(self.learnt_gap()).unwrap_or(u32::MAX);
         #[cfg(debug_assertions)]
         {
             if let Err(e) = self.res.validate().and_then(|()| self.pages.validate()) {
@@ -559,12 +558,7 @@ impl Loader {
                 self.note_resident();
                 let mut buf = vec![0u8; read as usize];
                 // On a seek-bound disk, through the page it lies in.
-                let done =
-                    if read == u64::from(rec.len) && self.read_by_pages(&rec, &mut buf, purpose) {
-                        buf.len()
-                    } else {
-                        0
-                    };
+                let done = self.read_by_pages(&rec, &mut buf, purpose);
                 (buf, done)
             }
         };

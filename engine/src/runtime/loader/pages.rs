@@ -141,9 +141,9 @@ impl PageCache {
 }
 
 impl Loader {
-    /// Whether reads go by pages now: pages are on and a seek costs at
-    /// least a page's transfer (learnt).
-    pub(super) fn paging(&self) -> bool {
+    /// Whether pages are asked for and a seek costs at least a page's
+    /// transfer (learnt).
+    fn paging(&self) -> bool {
         let p = self.params.page_bytes;
         p > 0
             && self.params.mode != Mode::Incore
@@ -153,22 +153,17 @@ impl Loader {
                 >= p
     }
 
-    /// The pages' room this frame (0 while not paging).
-    pub(super) fn page_cap(&self) -> u64 {
-        if self.paging() { self.pages.cap() } else { 0 }
-    }
-
-    /// Sets the pages' room for the next frame: `page_share` of the
-    /// budget while paging. (Measured and rejected: a share that shrinks
-    /// when the front is large, to give prefetching the room — the reads
-    /// then fell back to one seek per rep just in the dense stretches.)
+    /// Decides, once a frame, whether reads go by pages and the pages'
+    /// room: `page_share` of the budget while paging, if that holds the two
+    /// pages a rep may straddle (with room for one, its second page would
+    /// evict its first); else 0, and the pages held go. (Measured and
+    /// rejected: a share that shrinks when the front is large, to give
+    /// prefetching the room — the reads then fell back to one seek per rep
+    /// just in the dense stretches.)
     pub(super) fn plan_pages(&mut self) {
-        let cap = if self.paging() {
-            (self.params.budget_bytes as f64 * f64::from(self.params.page_share)) as u64
-        } else {
-            0
-        };
-        self.pages.set_cap(cap);
+        let share = (self.params.budget_bytes as f64 * f64::from(self.params.page_share)) as u64;
+        let on = self.paging() && share >= 2 * self.params.page_bytes;
+        self.pages.set_cap(if on { share } else { 0 });
     }
 
     /// Whether rep `rec` is read by pages: pages on this frame, and stored
@@ -177,41 +172,35 @@ impl Loader {
         !rec.is_paged() && u64::from(rec.len) <= self.params.page_bytes && self.pages_on()
     }
 
-    /// Whether reads go by pages this frame: paging, and room for the two
-    /// pages a rep may straddle (else reads go through short gaps as on a
-    /// fast disk; with room for one, its second page would evict its first).
+    /// Whether reads go by pages this frame (else they go through short
+    /// gaps as on a fast disk).
     pub(super) fn pages_on(&self) -> bool {
-        self.paging() && self.pages.cap() >= 2 * self.params.page_bytes
+        self.pages.cap() > 0
     }
 
     /// Fills `buf` with the stored bytes of `rec` through the page cache,
-    /// reading each missing page whole (one seek). False — nothing read or
-    /// copied — when it is not read by pages or a page finds no room (it is
-    /// then read as it is); a read error also gives false, and the direct
-    /// read that follows reports it.
+    /// reading each missing page whole (one seek); the bytes filled. 0 —
+    /// nothing read or copied — when it is not read by pages (or `buf` is
+    /// not its stored bytes) or a page finds no room: it is then read as it
+    /// is; a read error also gives 0, and the direct read that follows
+    /// reports it.
     pub(super) fn read_by_pages(
         &mut self,
         rec: &RepRecord,
         buf: &mut [u8],
         purpose: Purpose,
-    ) -> bool {
-        if !self.paging() {
-            if self.pages.bytes() > 0 {
-                self.pages.clear();
-            }
-            return false;
-        }
-        if !self.by_pages(rec) {
-            return false;
+    ) -> usize {
+        if buf.len() as u64 != u64::from(rec.len) || !self.by_pages(rec) {
+            return 0;
         }
         let hit = self.pages.covers(rec.offset, u64::from(rec.len));
-        if !self.fill_pages(rec, purpose) {
-            return false;
+        if !self.fill_pages(rec, purpose) || !self.pages.copy_out(rec.offset, buf) {
+            return 0;
         }
         if hit {
             self.stats.page_hits += 1;
         }
-        self.pages.copy_out(rec.offset, buf)
+        buf.len()
     }
 
     /// Reads the missing pages of `rec` whole; false when one found no room
@@ -247,7 +236,7 @@ impl Loader {
     /// Makes room for a page of `n` bytes: within the pages' share and
     /// beside what is resident, evicting pages (never reps).
     fn page_room(&mut self, n: u64) -> bool {
-        let (cap, budget) = (self.page_cap(), self.params.budget_bytes);
+        let (cap, budget) = (self.pages.cap(), self.params.budget_bytes);
         while self.pages.bytes() + n > cap || self.res.bytes() + self.pages.bytes() + n > budget {
             if self.pages.evict_lru().is_none() {
                 return false;
@@ -262,7 +251,7 @@ impl Loader {
         let pages = self.pages.bytes();
         let held = match purpose {
             Purpose::Demand => pages,
-            Purpose::Prefetch => pages.max(self.page_cap()),
+            Purpose::Prefetch => pages.max(self.pages.cap()),
         };
         budget.saturating_sub(held)
     }

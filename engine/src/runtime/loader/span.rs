@@ -241,8 +241,15 @@ impl Loader {
     /// reading by pages (a page holds the neighbours).
     pub(super) fn max_gap(&self) -> u64 {
         if self.pages_on() {
-            return 0;
+            0
+        } else {
+            self.learnt_gap()
         }
+    }
+
+    /// The break-even gap learnt (capped by `coalesce_max_gap`), whether or
+    /// not reads go through gaps now.
+    pub(super) fn learnt_gap(&self) -> u64 {
         self.costs.max_gap(self.params.coalesce_max_gap, 64 << 10)
     }
 
