@@ -61,12 +61,15 @@ enum LoadError {
     Preempted,
 }
 
-/// What the read planners consult: the skeleton, its front index and the
-/// parameters.
+/// What the read planners consult: the skeleton, its front index, the
+/// parameters and the reps' room for prefetching.
 pub(super) struct Plan<'a> {
     pub(super) skeleton: &'a Skeleton,
     pub(super) index: &'a FrontIndex,
     pub(super) params: &'a RuntimeParams,
+    /// The bytes prefetched reps may take: the budget less the pages'
+    /// share (all of it when reads go by rep).
+    pub(super) room: u64,
 }
 
 impl<'a> Plan<'a> {
@@ -79,7 +82,13 @@ impl<'a> Plan<'a> {
             skeleton,
             index,
             params,
+            room: params.budget_bytes,
         }
+    }
+
+    /// The same with the reps' room for prefetching `room`.
+    pub(super) fn with_room(self, room: u64) -> Self {
+        Self { room, ..self }
     }
 }
 
@@ -268,7 +277,8 @@ impl Loader {
     /// Classifies the front of `view` for prefetching (when it moved), and
     /// plans the sweep and the lookahead from F_I's front.
     fn classify(&mut self, view: &View, turn_rad: f32) {
-        let plan = Plan::of(&self.skeleton, &self.index, &self.params);
+        let room = self.rep_budget(self.params.budget_bytes, Purpose::Prefetch);
+        let plan = Plan::of(&self.skeleton, &self.index, &self.params).with_room(room);
         // A fetch command that arrives meanwhile cuts the classification
         // short: Stage II comes first.
         let (pending, cmds) = (&mut self.pending, &self.cmds);

@@ -63,8 +63,8 @@ pub struct PrefetchParams {
     /// `loader/ahead.rs`).
     pub lookahead_frames: u32,
     /// F_I goes all around the eye whenever the all-around front at ε takes
-    /// at most this share of the footprint (0: never; the margins above
-    /// decide otherwise).
+    /// at most this share of the reps' room (the footprint less the pages'
+    /// share; 0: never; the margins above decide otherwise).
     pub all_around_fit: f32,
 }
 

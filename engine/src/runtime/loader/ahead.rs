@@ -34,7 +34,12 @@
 //! reps found no room. Left untouched they keep their place in the list,
 //! and a prefetch may take their room. (Without culling, F_I's fronts are
 //! what a turn draws: left untouched there, they churned, and Stage II
-//! grew on the DE-size plant. Figures in docs/results.md.)
+//! grew on the DE-size plant. Figures in docs/results.md.) What is touched
+//! never exceeds the reps' room for prefetching: the view fronts ahead
+//! count first, resident or not, and F_I's resident reps are touched only
+//! while they fit beside them. (Touched past the room — F_I's all-around
+//! fronts of a dense stretch — they left no rep a prefetch could evict,
+//! and the view fronts' reps were refused for room.)
 
 use glam::{Quat, Vec3};
 
@@ -61,6 +66,10 @@ pub(super) struct Lookahead {
     /// The reps of the fronts ahead, in service order.
     pub(super) queue: ReadQueue,
     front: Vec<RepId>,
+    /// The plan that last counted each rep's bytes (a rep in several fronts
+    /// counts once), and this plan's stamp.
+    counted: Vec<u32>,
+    stamp: u32,
 }
 
 impl Default for Lookahead {
@@ -72,6 +81,8 @@ impl Default for Lookahead {
             last_rot: None,
             queue: ReadQueue::default(),
             front: Vec::new(),
+            counted: Vec::new(),
+            stamp: 0,
         }
     }
 }
@@ -121,6 +132,15 @@ impl Lookahead {
         let protect_f_i = plan.params.occlusion_bytes == 0;
         let mut front = std::mem::take(&mut self.front);
         let mut keyed: Vec<(u32, u64, RepId)> = Vec::new();
+        // The bytes the fronts ahead keep (touched) or want (queued view
+        // front reps), each rep once.
+        self.counted.resize(plan.skeleton.reps.len(), 0);
+        self.stamp = self.stamp.wrapping_add(1);
+        if self.stamp == 0 {
+            self.counted.fill(0);
+            self.stamp = 1;
+        }
+        let mut kept = 0u64;
         // First the view fronts (F_R) of each frame ahead, nearest first:
         // what the motion will draw next; then F_I's fronts at two horizons.
         let mut passes: Vec<(u32, f32)> = view_horizons(k).map(|f| (f, 0.0)).collect();
@@ -147,11 +167,18 @@ impl Lookahead {
                 if failed[r as usize] {
                     continue;
                 }
+                let new = self.counted[r as usize] != self.stamp;
                 if res.contains(r) {
-                    if m == 0.0 || protect_f_i {
+                    if new && (m == 0.0 || (protect_f_i && kept + res.cost(r) <= plan.room)) {
+                        self.counted[r as usize] = self.stamp;
+                        kept += res.cost(r);
                         res.access(r);
                     }
                     continue;
+                }
+                if m == 0.0 && new {
+                    self.counted[r as usize] = self.stamp;
+                    kept += res.cost(r);
                 }
                 // Hidden now, or when last in the view (behind a wall): after
                 // every rep the motion will see, in the same horizon order,

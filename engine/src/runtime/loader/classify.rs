@@ -115,11 +115,14 @@ impl Classifier {
         let enlarged = view.frustum(margin);
         plan.index
             .compute(view, &enlarged, plan.params.tolerance_px, &mut front);
-        // All around when the all-around front fits the footprint; if it
-        // does not, F_I's front is its part in F_I. The all-around front
-        // holds F_I's (the same cut, less culling): when F_I's does not
-        // fit, the all-around one is not computed.
-        let fit = f64::from(p.all_around_fit) * plan.params.budget_bytes as f64;
+        // All around when the all-around front fits the reps' room (the
+        // footprint less the pages' share); if it does not, F_I's front is
+        // its part in F_I. The all-around front holds F_I's (the same cut,
+        // less culling): when F_I's does not fit, the all-around one is not
+        // computed. (Measured against the whole footprint while pages took
+        // a quarter of it, F_I's fronts ahead were protected past the
+        // reps' room and P_I stood idle, every candidate refused for room.)
+        let fit = f64::from(p.all_around_fit) * plan.room as f64;
         let bytes = |f: &[RepId]| f.iter().map(|&r| res.cost(r)).sum::<u64>() as f64;
         let mut cut = false;
         if fit > 0.0 && margin < std::f32::consts::FRAC_PI_2 && bytes(&front) <= fit && {

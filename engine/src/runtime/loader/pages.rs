@@ -97,6 +97,11 @@ impl PageCache {
         }
     }
 
+    /// Makes `page` the first to go (no use recorded).
+    pub(super) fn demote(&mut self, page: u64) {
+        self.pages.demote(&page);
+    }
+
     /// Drops the least recently used page; its bytes, or `None` when empty.
     pub(super) fn evict_lru(&mut self) -> Option<u64> {
         let (_, data) = self.pages.pop_lru()?;
@@ -200,7 +205,41 @@ impl Loader {
         if hit {
             self.stats.page_hits += 1;
         }
+        self.demote_spent(rec);
         buf.len()
+    }
+
+    /// Once rep `rec` is copied out, a page of it that holds no other rep
+    /// P_I still wants (a candidate of this classification or the one
+    /// before, not resident) goes first when a page needs room: its reps
+    /// are expanded already, and the pages that still hold wanted reps are
+    /// the ones worth their room. (By last use alone, the pages just copied
+    /// out — spent — stayed, and pages of the reps ahead were evicted and
+    /// read again.) Without prefetching nothing is wanted ahead: the pages
+    /// go by last use.
+    fn demote_spent(&mut self, rec: &RepRecord) {
+        if self.params.mode != Mode::Pre {
+            return;
+        }
+        let (a, b) = self.pages.span(rec.offset, u64::from(rec.len));
+        let p = self.params.page_bytes;
+        for page in a..=b {
+            let end = (page + 1) * p;
+            let wanted = self
+                .order
+                .starting_at(&self.skeleton, page * p)
+                .iter()
+                .take_while(|&&r| self.skeleton.reps[r as usize].offset < end)
+                .any(|&r| {
+                    self.skeleton.reps[r as usize].offset != rec.offset
+                        && !self.failed[r as usize]
+                        && !self.res.contains(r)
+                        && self.classes.is_recent(r)
+                });
+            if !wanted {
+                self.pages.demote(page);
+            }
+        }
     }
 
     /// Reads the missing pages of `rec` whole; false when one found no room
@@ -338,6 +377,23 @@ mod tests {
         c.validate().unwrap();
         c.clear();
         assert_eq!(c.bytes(), 0);
+        c.validate().unwrap();
+    }
+
+    #[test]
+    fn a_spent_page_goes_first() {
+        let mut c = PageCache::new(4);
+        for p in 0..3 {
+            c.insert(p, Arc::from(&[p as u8; 4][..]));
+        }
+        // Page 2 was read last, but it is spent: it goes before 0 and 1.
+        c.demote(2);
+        assert_eq!(c.evict_lru(), Some(4));
+        assert!(!c.covers(8, 4) && c.covers(0, 8));
+        // A use after that counts again: page 0 is used, page 1 goes next.
+        assert!(c.copy_out(0, &mut [0u8; 2]));
+        assert_eq!(c.evict_lru(), Some(4));
+        assert!(c.covers(0, 4) && !c.covers(4, 4));
         c.validate().unwrap();
     }
 }

@@ -333,3 +333,64 @@ fn with_occlusion_culling_the_lookahead_protects_only_what_the_motion_draws() {
         }
     }
 }
+
+#[test]
+fn the_lookahead_protects_f_i_fronts_only_within_the_reps_room() {
+    // As above without culling: the part behind the eye (only in F_I's
+    // fronts ahead) is protected while the reps' room holds it beside the
+    // view fronts ahead; with a room that the view fronts already fill
+    // (pages taking the rest of the footprint), a prefetch may take it.
+    let s = row();
+    let (ahead_rep, behind_rep) = (8, 2);
+    for small in [false, true] {
+        let mut p = params();
+        p.prefetch.all_around_fit = 1.0;
+        p.budget_bytes = u64::MAX / 4;
+        let (index, mut res, mut c) = setup(&s, &p);
+        let room = if small {
+            res.cost(ahead_rep)
+        } else {
+            p.budget_bytes
+        };
+        let plan = Plan::of(&s, &index, &p).with_room(room);
+        for r in [ahead_rep, behind_rep] {
+            make_resident(&s, &mut res, r);
+        }
+        res.start_stage2(&[]);
+        // F_I all around (classified with the whole footprint's room).
+        let (mut ahead, view, margin) = moving_to_5(&Plan::of(&s, &index, &p), &res, &mut c);
+        assert_eq!(margin, std::f32::consts::PI);
+        let failed = vec![false; s.reps.len()];
+        ahead.plan(
+            &plan,
+            &mut res,
+            &failed,
+            &mut c,
+            &view,
+            margin,
+            &ManualClock::new(),
+            &mut || false,
+        );
+        let need = res.cost(behind_rep);
+        let made = res.make_room(need, res.bytes(), Purpose::Prefetch, u64::MAX, |_| 0);
+        assert!(res.contains(ahead_rep), "the view fronts' parts stay");
+        assert_eq!(made, small, "room {room}");
+        assert_eq!(res.contains(behind_rep), !small);
+    }
+}
+
+#[test]
+fn f_i_is_all_around_only_when_it_fits_the_reps_room_beside_the_pages() {
+    // A footprint that holds every part twice, but pages take all of it but
+    // eight parts: F_I is the view widened by the margin.
+    let s = row();
+    let mut p = params();
+    p.prefetch.all_around_fit = 1.0;
+    p.budget_bytes = s.reps.iter().map(|r| u64::from(r.len)).sum::<u64>() * 2;
+    let (index, res, mut c) = setup(&s, &p);
+    let plan = Plan::of(&s, &index, &p).with_room(u64::from(s.reps[1].len) * 8);
+    let (front, margin) = c
+        .classify_front(&plan, &res, &p.view(&pose_at(12.0)), 0.0, &mut || false)
+        .unwrap();
+    assert!(margin < 1.0 && front.len() < 24, "{margin} {}", front.len());
+}

@@ -114,7 +114,8 @@ struct Args {
     #[arg(long, default_value_t = 10, value_parser = in_range(0u32, 10_000))]
     lookahead: u32,
     /// F_I goes all around the eye whenever the all-around front takes at
-    /// most this share of the budget; 0 = never.
+    /// most this share of the reps' room (the budget less the pages'
+    /// share); 0 = never.
     #[arg(long, default_value_t = 1.0, value_parser = in_range(0.0f32, 1000.0))]
     all_around: f32,
     /// Print what any fetching policy could do on this path (from the
