@@ -18,6 +18,7 @@ mod misses;
 mod outbox;
 mod pacing;
 mod pages;
+mod plan;
 #[cfg(test)]
 mod plan_tests;
 mod span;
@@ -44,6 +45,7 @@ use outbox::Outbox;
 pub(super) use outbox::capacity as reply_capacity;
 use pacing::Pacing;
 use pages::PageCache;
+pub(super) use plan::Plan;
 use span::{FileOrder, IoCosts, Partial, preempted};
 use sweep::Sweep;
 
@@ -59,37 +61,6 @@ enum LoadError {
     Failed,
     /// A new fetch command arrived during a prefetch read.
     Preempted,
-}
-
-/// What the read planners consult: the skeleton, its front index, the
-/// parameters and the reps' room for prefetching.
-pub(super) struct Plan<'a> {
-    pub(super) skeleton: &'a Skeleton,
-    pub(super) index: &'a FrontIndex,
-    pub(super) params: &'a RuntimeParams,
-    /// The bytes prefetched reps may take: the budget less the pages'
-    /// share (all of it when reads go by rep).
-    pub(super) room: u64,
-}
-
-impl<'a> Plan<'a> {
-    pub(super) fn of(
-        skeleton: &'a Skeleton,
-        index: &'a FrontIndex,
-        params: &'a RuntimeParams,
-    ) -> Self {
-        Self {
-            skeleton,
-            index,
-            params,
-            room: params.budget_bytes,
-        }
-    }
-
-    /// The same with the reps' room for prefetching `room`.
-    pub(super) fn with_room(self, room: u64) -> Self {
-        Self { room, ..self }
-    }
 }
 
 /// P_I: a command loop around the resident set and the read planners; it
