@@ -45,7 +45,7 @@ use outbox::Outbox;
 pub(super) use outbox::capacity as reply_capacity;
 use pacing::Pacing;
 use pages::PageCache;
-pub(super) use plan::Plan;
+use plan::Plan;
 use span::{FileOrder, IoCosts, Partial, preempted};
 use sweep::Sweep;
 

@@ -121,8 +121,8 @@ pub struct RuntimeParams {
     /// this many bytes' transfer (learnt), P_I reads the aligned page of
     /// this size a rep lies in and keeps it, stored, in `page_share` of the
     /// budget (see `loader::pages`). Off on a fast disk by itself. Off by
-    /// default: on the DE-size plant on `hdd` it lowers the median frame
-    /// but not the p99, and on the PP-size plant its share of a tight
+    /// default: on the DE-size plant on `hdd` it brings every path kind to
+    /// in-core frame times, but on the PP-size plant its share of a tight
     /// budget costs more misses than it saves (docs/results.md).
     pub page_bytes: u64,
     /// The share of the budget that pages may take from prefetching (a

@@ -6,17 +6,17 @@ use crate::skeleton::Skeleton;
 
 /// What the read planners consult: the skeleton, its front index, the
 /// parameters and the reps' room for prefetching.
-pub(in crate::runtime) struct Plan<'a> {
-    pub(in crate::runtime) skeleton: &'a Skeleton,
-    pub(in crate::runtime) index: &'a FrontIndex,
-    pub(in crate::runtime) params: &'a RuntimeParams,
+pub(super) struct Plan<'a> {
+    pub(super) skeleton: &'a Skeleton,
+    pub(super) index: &'a FrontIndex,
+    pub(super) params: &'a RuntimeParams,
     /// The bytes prefetched reps may take: the budget less the pages'
     /// share (all of it when reads go by rep).
-    pub(in crate::runtime) room: u64,
+    pub(super) room: u64,
 }
 
 impl<'a> Plan<'a> {
-    pub(in crate::runtime) fn of(
+    pub(super) fn of(
         skeleton: &'a Skeleton,
         index: &'a FrontIndex,
         params: &'a RuntimeParams,
@@ -30,7 +30,7 @@ impl<'a> Plan<'a> {
     }
 
     /// The same with the reps' room for prefetching `room`.
-    pub(in crate::runtime) fn with_room(self, room: u64) -> Self {
+    pub(super) fn with_room(self, room: u64) -> Self {
         Self { room, ..self }
     }
 }

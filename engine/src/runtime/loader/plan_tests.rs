@@ -288,95 +288,67 @@ fn f_i_front_reps_are_served_by_angle_whatever_their_error() {
     }
 }
 
-#[test]
-fn with_occlusion_culling_the_lookahead_protects_only_what_the_motion_draws() {
-    // Moving along +x with an all-around F_I: the part at x = 7 is in the
-    // view fronts ahead, the part at x = 1 (behind the eye) only in F_I's
-    // fronts ahead. Both are resident, last used before this Stage II.
+/// Moving along +x with an all-around F_I (classified with the whole
+/// footprint as the reps' room): the part at x = 7 is in the view fronts
+/// ahead, the part at x = 1 (behind the eye) only in F_I's fronts ahead.
+/// Both are resident, last used before this Stage II; the lookahead plans
+/// with occlusion culling on or off and the reps' room `room` (of the
+/// resident set), then a prefetch asks for the room of the part behind.
+/// Whether it got it, and whether the parts ahead and behind stay.
+fn lookahead_then_prefetch(culling: bool, room: impl Fn(&ResidentSet) -> u64) -> [bool; 3] {
     let s = row();
     let (ahead_rep, behind_rep) = (8, 2);
     assert_eq!(xs(&s, &[ahead_rep, behind_rep]), [7, 1]);
-    for culling in [false, true] {
-        let mut p = params();
-        p.prefetch.all_around_fit = 1.0;
-        p.budget_bytes = u64::MAX / 4;
-        p.occlusion_bytes = if culling { 1 << 20 } else { 0 };
-        let (index, mut res, mut c) = setup(&s, &p);
-        let plan = Plan::of(&s, &index, &p);
-        for r in [ahead_rep, behind_rep] {
-            make_resident(&s, &mut res, r);
-        }
-        res.start_stage2(&[]);
-        let (mut ahead, view, margin) = moving_to_5(&plan, &res, &mut c);
-        assert_eq!(margin, std::f32::consts::PI);
-        let failed = vec![false; s.reps.len()];
-        let clock = ManualClock::new();
-        ahead.plan(
-            &plan,
-            &mut res,
-            &failed,
-            &mut c,
-            &view,
-            margin,
-            &clock,
-            &mut || false,
-        );
-        // A prefetch needs the room of one part.
-        let need = res.cost(behind_rep);
-        let room = res.make_room(need, res.bytes(), Purpose::Prefetch, u64::MAX, |_| 0);
-        if culling {
-            // F_I's part behind the eye is not protected: its room is taken.
-            assert!(room && res.contains(ahead_rep) && !res.contains(behind_rep));
-        } else {
-            // Without culling, F_I's fronts are what a turn draws: both stay.
-            assert!(!room && res.contains(ahead_rep) && res.contains(behind_rep));
-        }
+    let mut p = params();
+    p.prefetch.all_around_fit = 1.0;
+    p.budget_bytes = u64::MAX / 4;
+    p.occlusion_bytes = if culling { 1 << 20 } else { 0 };
+    let (index, mut res, mut c) = setup(&s, &p);
+    let plan = Plan::of(&s, &index, &p).with_room(room(&res));
+    for r in [ahead_rep, behind_rep] {
+        make_resident(&s, &mut res, r);
     }
+    res.start_stage2(&[]);
+    let (mut ahead, view, margin) = moving_to_5(&Plan::of(&s, &index, &p), &res, &mut c);
+    assert_eq!(margin, std::f32::consts::PI);
+    let failed = vec![false; s.reps.len()];
+    ahead.plan(
+        &plan,
+        &mut res,
+        &failed,
+        &mut c,
+        &view,
+        margin,
+        &ManualClock::new(),
+        &mut || false,
+    );
+    let need = res.cost(behind_rep);
+    let made = res.make_room(need, res.bytes(), Purpose::Prefetch, u64::MAX, |_| 0);
+    [made, res.contains(ahead_rep), res.contains(behind_rep)]
+}
+
+#[test]
+fn with_occlusion_culling_the_lookahead_protects_only_what_the_motion_draws() {
+    let whole = |_: &ResidentSet| u64::MAX / 4;
+    // With culling, F_I's part behind the eye is not protected: its room is
+    // taken.
+    assert_eq!(lookahead_then_prefetch(true, whole), [true, true, false]);
+    // Without culling, F_I's fronts are what a turn draws: both stay.
+    assert_eq!(lookahead_then_prefetch(false, whole), [false, true, true]);
 }
 
 #[test]
 fn the_lookahead_protects_f_i_fronts_only_within_the_reps_room() {
-    // As above without culling: the part behind the eye (only in F_I's
-    // fronts ahead) is protected while the reps' room holds it beside the
-    // view fronts ahead; with a room that the view fronts already fill
-    // (pages taking the rest of the footprint), a prefetch may take it.
-    let s = row();
-    let (ahead_rep, behind_rep) = (8, 2);
-    for small in [false, true] {
-        let mut p = params();
-        p.prefetch.all_around_fit = 1.0;
-        p.budget_bytes = u64::MAX / 4;
-        let (index, mut res, mut c) = setup(&s, &p);
-        let room = if small {
-            res.cost(ahead_rep)
-        } else {
-            p.budget_bytes
-        };
-        let plan = Plan::of(&s, &index, &p).with_room(room);
-        for r in [ahead_rep, behind_rep] {
-            make_resident(&s, &mut res, r);
-        }
-        res.start_stage2(&[]);
-        // F_I all around (classified with the whole footprint's room).
-        let (mut ahead, view, margin) = moving_to_5(&Plan::of(&s, &index, &p), &res, &mut c);
-        assert_eq!(margin, std::f32::consts::PI);
-        let failed = vec![false; s.reps.len()];
-        ahead.plan(
-            &plan,
-            &mut res,
-            &failed,
-            &mut c,
-            &view,
-            margin,
-            &ManualClock::new(),
-            &mut || false,
-        );
-        let need = res.cost(behind_rep);
-        let made = res.make_room(need, res.bytes(), Purpose::Prefetch, u64::MAX, |_| 0);
-        assert!(res.contains(ahead_rep), "the view fronts' parts stay");
-        assert_eq!(made, small, "room {room}");
-        assert_eq!(res.contains(behind_rep), !small);
-    }
+    // Without culling, the part behind the eye (only in F_I's fronts
+    // ahead) is protected while the reps' room holds it beside the view
+    // fronts ahead (above); with a room that the view fronts already fill
+    // (pages taking the rest of the footprint), a prefetch may take it, and
+    // the view fronts' part stays.
+    let ahead_only = |res: &ResidentSet| res.cost(8);
+    assert_eq!(
+        lookahead_then_prefetch(false, ahead_only),
+        [true, true, false]
+    );
 }
 
 #[test]
