@@ -14,8 +14,20 @@ use engine::runtime::RuntimeParams;
 use engine::skeleton::{RepId, Skeleton};
 
 const MIB: f64 = 1048576.0;
+/// Frames the clairvoyant P_I knows ahead (4 s at 30 fps), and the
+/// shorter horizons measured.
+const ORACLE_HORIZON: usize = 120;
+const ORACLE_HORIZONS: [usize; 5] = [3, 10, 30, 60, ORACLE_HORIZON];
 /// A rep under this size costs its seek rather than its transfer.
 const SMALL: u64 = 8 << 10;
+
+/// How the clairvoyant P_I reads and how long a frame is drawn.
+pub struct Io {
+    /// Pages it reads by (`--page`; 128 KiB when off).
+    pub page_bytes: u64,
+    /// Triangles drawn per second (`--render-rate`).
+    pub render_rate: f64,
+}
 
 /// The bounds table (markdown) for `poses` under `params`, for each budget.
 pub fn bounds(
@@ -25,6 +37,7 @@ pub fn bounds(
     budgets: &[u64],
     disk: Option<DiskModel>,
     fps: f32,
+    io: Io,
 ) -> String {
     let index = FrontIndex::new(skel);
     let len = |r: RepId| skel.reps[r as usize].resident_len();
@@ -116,6 +129,58 @@ pub fn bounds(
     for &b in budgets {
         let (mib, reads) = belady(skel, &fronts, b);
         let _ = writeln!(s, "| {:.2} | {:.2} | {reads} |", b as f64 / MIB, mib);
+    }
+    if let Some(d) = disk {
+        s.push_str(&clairvoyant_table(skel, &fronts, budgets, d, fps, &io));
+    }
+    s
+}
+
+/// The clairvoyant P_I's demand reads against reading on demand alone
+/// with the same I/O, per budget ([`crate::oracle`]).
+fn clairvoyant_table(
+    skel: &Skeleton,
+    fronts: &[Vec<RepId>],
+    budgets: &[u64],
+    disk: DiskModel,
+    fps: f32,
+    io: &Io,
+) -> String {
+    let page = if io.page_bytes > 0 {
+        io.page_bytes
+    } else {
+        128 << 10
+    };
+    let mut s = format!(
+        "\nA clairvoyant P_I that reads ahead H frames: while each frame is drawn (at {:.0} triangles/s, at least the period) it reads the reps the next H frames draw, first drawn first, by {} KiB pages, one seek per run of consecutive pages; of every page read it keeps the reps drawn within {ORACLE_HORIZON} frames; Belady's eviction. Stage II MiB of pages (frames with a demand read); on demand alone: H = 0.\n\n| budget MiB | on demand alone |{}\n|---:|---:|{}\n",
+        io.render_rate,
+        page >> 10,
+        ORACLE_HORIZONS.map(|h| format!(" H = {h} |")).concat(),
+        "---:|".repeat(ORACLE_HORIZONS.len())
+    );
+    for &b in budgets {
+        let setting = |horizon| crate::oracle::Setting {
+            budget: b,
+            disk,
+            page_bytes: page,
+            period_s: 1.0 / f64::from(fps.max(1e-3)),
+            render_rate: io.render_rate,
+            horizon,
+            keep: ORACLE_HORIZON,
+        };
+        let cell = |o: crate::oracle::Oracle| {
+            format!(
+                " {:.2} ({}) |",
+                o.stage2_bytes as f64 / MIB,
+                o.stage2_frames
+            )
+        };
+        let none = crate::oracle::clairvoyant(skel, fronts, &setting(0));
+        let _ = write!(s, "| {:.2} |{}", b as f64 / MIB, cell(none));
+        for h in ORACLE_HORIZONS {
+            s.push_str(&cell(crate::oracle::clairvoyant(skel, fronts, &setting(h))));
+        }
+        s.push('\n');
     }
     s
 }

@@ -6,6 +6,7 @@
 mod bounds;
 mod fidelity;
 mod mt_table;
+mod oracle;
 mod plots;
 
 use std::path::{Path, PathBuf};
@@ -346,7 +347,11 @@ fn run(a: Args) -> Result<()> {
         a.tolerance
     );
     if a.bounds {
-        let text = bounds::bounds(&skel, &poses, &params, &budgets, disk, a.fps);
+        let io = bounds::Io {
+            page_bytes,
+            render_rate: a.render_rate,
+        };
+        let text = bounds::bounds(&skel, &poses, &params, &budgets, disk, a.fps, io);
         write_bytes(&a.out.join("bounds.md"), text.as_bytes())?;
         println!("{text}");
         return Ok(());
