@@ -4,7 +4,7 @@
 //! needs to read it. It separates the limits of the budget and of the disk
 //! from those of prediction.
 
-use std::collections::{BTreeSet, HashSet};
+use std::collections::HashSet;
 use std::fmt::Write as _;
 
 use engine::camera::Pose;
@@ -189,54 +189,23 @@ fn clairvoyant_table(
 /// last goes first; a greedy bound with reps of different sizes): the
 /// Stage II bytes after the first frame and the number of reps read.
 fn belady(skel: &Skeleton, fronts: &[Vec<RepId>], budget: u64) -> (f64, u64) {
-    let n = skel.reps.len();
-    let len = |r: RepId| skel.reps[r as usize].resident_len();
-    let mut uses: Vec<Vec<u32>> = vec![Vec::new(); n];
+    let mut res = crate::oracle::Resident::new(skel, fronts, budget);
+    let (mut fetched, mut reads) = (0u64, 0u64);
     for (t, f) in fronts.iter().enumerate() {
         for &r in f {
-            uses[r as usize].push(t as u32);
-        }
-    }
-    let mut cursor = vec![0usize; n];
-    let next_of = |r: RepId, t: usize, cursor: &mut Vec<usize>| {
-        let u = &uses[r as usize];
-        let c = &mut cursor[r as usize];
-        while *c < u.len() && u[*c] as usize <= t {
-            *c += 1;
-        }
-        u.get(*c).map_or(u32::MAX, |&x| x)
-    };
-    // Resident reps keyed by their next use.
-    let mut by_next: BTreeSet<(u32, RepId)> = BTreeSet::new();
-    let mut key: Vec<Option<u32>> = vec![None; n];
-    let (mut used, mut fetched, mut reads) = (0u64, 0u64, 0u64);
-    for (t, f) in fronts.iter().enumerate() {
-        // This frame's reps are pinned: rekey them past this frame.
-        for &r in f {
-            if let Some(k) = key[r as usize] {
-                by_next.remove(&(k, r));
-            }
+            res.pin(r);
         }
         for &r in f {
-            if key[r as usize].is_none() {
-                let need = len(r);
-                while used + need > budget {
-                    let Some(v) = by_next.pop_last() else { break };
-                    key[v.1 as usize] = None;
-                    used -= len(v.1);
-                }
-                used += need;
+            if !res.contains(r) {
+                res.admit(r, u32::MAX);
                 if t > 0 {
-                    fetched += need;
+                    fetched += res.len(r);
                     reads += 1;
                 }
             }
-            key[r as usize] = Some(u32::MAX);
         }
         for &r in f {
-            let k = next_of(r, t, &mut cursor);
-            key[r as usize] = Some(k);
-            by_next.insert((k, r));
+            res.unpin(r, t);
         }
     }
     (fetched as f64 / MIB, reads)
@@ -352,9 +321,7 @@ fn around_of(index: &FrontIndex, params: &RuntimeParams, pose: &Pose) -> Vec<Rep
 /// path and in the busiest 1% of frames (the sudden turns).
 fn new_per_frame(skel: &Skeleton, fronts: &[Vec<RepId>], gap: u64, seek: f64, rate: f64) -> String {
     let mut frames: Vec<(usize, u64, u64)> = Vec::new();
-    for w in fronts.windows(2) {
-        let prev: HashSet<RepId> = w[0].iter().copied().collect();
-        let mut new: Vec<RepId> = w[1].iter().copied().filter(|r| !prev.contains(r)).collect();
+    for mut new in crate::oracle::entries(fronts).into_iter().skip(1) {
         new.sort_unstable_by_key(|&r| skel.reps[r as usize].offset);
         let (runs, read) = file_order_runs(skel, &new, gap);
         frames.push((new.len(), runs, read));

@@ -59,37 +59,33 @@ struct Batch {
 }
 
 impl Batch {
-    /// The change in runs if page `p` is read too (0 if it is read already).
-    fn new_runs(&self, p: u64) -> i64 {
-        if self.pages.contains(&p) {
-            return 0;
+    /// The pages of `pages` not read yet, and the runs there would be with
+    /// them read too.
+    fn grown(&self, pages: std::ops::RangeInclusive<u64>) -> (BTreeSet<u64>, u64) {
+        let mut more = BTreeSet::new();
+        let mut runs = self.runs;
+        for p in pages {
+            if !self.pages.contains(&p) && more.insert(p) {
+                let has = |q: u64| self.pages.contains(&q) || more.contains(&q);
+                // A page joins the run before it, the run after it, or both.
+                runs = (runs + 1) - u64::from(p > 0 && has(p - 1)) - u64::from(has(p + 1));
+            }
         }
-        1 - i64::from(p > 0 && self.pages.contains(&(p - 1)))
-            - i64::from(self.pages.contains(&(p + 1)))
+        (more, runs)
     }
 
     /// The seconds this batch would take with `pages` read too.
     fn cost_with(&self, s: &Setting, pages: std::ops::RangeInclusive<u64>) -> f64 {
-        let mut more = BTreeSet::new();
-        let (mut runs, mut n) = (self.runs as i64, self.pages.len() as u64);
-        for p in pages {
-            if !self.pages.contains(&p) && more.insert(p) {
-                let has = |q: u64| self.pages.contains(&q) || more.contains(&q);
-                runs += 1 - i64::from(p > 0 && has(p - 1)) - i64::from(has(p + 1));
-                n += 1;
-            }
-        }
-        runs.max(0) as f64 * s.disk.latency.as_secs_f64()
+        let (more, runs) = self.grown(pages);
+        let n = (self.pages.len() + more.len()) as u64;
+        runs as f64 * s.disk.latency.as_secs_f64()
             + (n * s.page_bytes) as f64 / s.disk.bytes_per_sec
     }
 
     fn add(&mut self, pages: std::ops::RangeInclusive<u64>) {
-        for p in pages {
-            let d = self.new_runs(p);
-            if self.pages.insert(p) {
-                self.runs = (self.runs as i64 + d) as u64;
-            }
-        }
+        let (more, runs) = self.grown(pages);
+        self.pages.extend(more);
+        self.runs = runs;
     }
 
     fn bytes(&self, page: u64) -> u64 {
@@ -97,9 +93,10 @@ impl Batch {
     }
 }
 
-/// The resident reps, keyed by their next use; a pinned rep (drawn this
-/// frame) is resident and not in `by_next`.
-struct Resident<'a> {
+/// The resident reps of a path's fronts, keyed by their next use; a pinned
+/// rep (drawn this frame) is resident and not in `by_next`. Also the
+/// demand fetching with Belady's eviction of `--bounds`.
+pub(crate) struct Resident<'a> {
     skel: &'a Skeleton,
     budget: u64,
     used: u64,
@@ -109,12 +106,32 @@ struct Resident<'a> {
     cursor: Vec<usize>,
 }
 
-impl Resident<'_> {
-    fn len(&self, r: RepId) -> u64 {
+impl<'a> Resident<'a> {
+    /// Nothing resident under `budget`; the uses of each rep by `fronts`.
+    pub(crate) fn new(skel: &'a Skeleton, fronts: &[Vec<RepId>], budget: u64) -> Self {
+        let n = skel.reps.len();
+        let mut uses: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for (t, f) in fronts.iter().enumerate() {
+            for &r in f {
+                uses[r as usize].push(t as u32);
+            }
+        }
+        Self {
+            skel,
+            budget,
+            used: 0,
+            by_next: BTreeSet::new(),
+            key: vec![None; n],
+            uses,
+            cursor: vec![0; n],
+        }
+    }
+
+    pub(crate) fn len(&self, r: RepId) -> u64 {
         self.skel.reps[r as usize].resident_len()
     }
 
-    fn contains(&self, r: RepId) -> bool {
+    pub(crate) fn contains(&self, r: RepId) -> bool {
         self.key[r as usize].is_some()
     }
 
@@ -129,7 +146,7 @@ impl Resident<'_> {
     }
 
     /// Pins `r` (drawn now) if resident.
-    fn pin(&mut self, r: RepId) {
+    pub(crate) fn pin(&mut self, r: RepId) {
         if let Some(k) = self.key[r as usize]
             && k != u32::MAX
         {
@@ -139,16 +156,17 @@ impl Resident<'_> {
     }
 
     /// Unpins `r`, keyed by its next use after `t`.
-    fn unpin(&mut self, r: RepId, t: usize) {
+    pub(crate) fn unpin(&mut self, r: RepId, t: usize) {
         let k = self.next_use(r, t);
         self.key[r as usize] = Some(k);
         self.by_next.insert((k, r));
     }
 
-    /// Makes `r` resident with next use `k` (`u32::MAX`: pinned), evicting
-    /// reps used again after `k` (any unpinned rep when pinning); false
-    /// when there is no such room.
-    fn admit(&mut self, r: RepId, k: u32) -> bool {
+    /// Makes `r` resident with next use `k`, evicting reps used again
+    /// after `k`; false when there is no such room. `u32::MAX` pins it: it
+    /// is drawn now, so any unpinned rep may go, and it is admitted even
+    /// when the front alone exceeds the budget.
+    pub(crate) fn admit(&mut self, r: RepId, k: u32) -> bool {
         let need = self.len(r);
         while self.used + need > self.budget {
             match self.by_next.last() {
@@ -157,6 +175,7 @@ impl Resident<'_> {
                     self.key[v as usize] = None;
                     self.used -= self.len(v);
                 }
+                None if k == u32::MAX => break,
                 _ => return false,
             }
         }
@@ -172,13 +191,6 @@ impl Resident<'_> {
 /// The clairvoyant P_I's reads on `fronts` (the view fronts, frame by
 /// frame) in setting `s`.
 pub fn clairvoyant(skel: &Skeleton, fronts: &[Vec<RepId>], s: &Setting) -> Oracle {
-    let n = skel.reps.len();
-    let mut uses: Vec<Vec<u32>> = vec![Vec::new(); n];
-    for (t, f) in fronts.iter().enumerate() {
-        for &r in f {
-            uses[r as usize].push(t as u32);
-        }
-    }
     // The reps each frame draws that the one before did not: a rep not
     // resident first drawn at frame u > t+1 is among frame u's entries.
     let entries = entries(fronts);
@@ -194,15 +206,7 @@ pub fn clairvoyant(skel: &Skeleton, fronts: &[Vec<RepId>], s: &Setting) -> Oracl
         let j = by_offset.partition_point(|&r| skel.reps[r as usize].offset < (p + 1) * page);
         &by_offset[i..j]
     };
-    let mut res = Resident {
-        skel,
-        budget: s.budget,
-        used: 0,
-        by_next: BTreeSet::new(),
-        key: vec![None; n],
-        uses,
-        cursor: vec![0; n],
-    };
+    let mut res = Resident::new(skel, fronts, s.budget);
     let mut out = Oracle::default();
     // The other reps of the pages just read that are drawn within the
     // horizon stay, if there is room for them.
@@ -281,7 +285,7 @@ pub fn clairvoyant(skel: &Skeleton, fronts: &[Vec<RepId>], s: &Setting) -> Oracl
 }
 
 /// For each frame, the reps its front holds that the one before did not.
-fn entries(fronts: &[Vec<RepId>]) -> Vec<Vec<RepId>> {
+pub(crate) fn entries(fronts: &[Vec<RepId>]) -> Vec<Vec<RepId>> {
     let sorted: Vec<Vec<RepId>> = fronts
         .iter()
         .map(|f| {
