@@ -282,7 +282,7 @@ pub fn open_scene_source(
     path: &std::path::Path,
     model: Option<DiskModel>,
 ) -> io::Result<std::sync::Arc<dyn ByteSource>> {
-    scene_source(std::fs::File::open(path)?, model)
+    scene_source(crate::infile::open(path)?, model)
 }
 
 /// [`open_scene_source`] over a file already open: a program that runs

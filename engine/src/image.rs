@@ -77,7 +77,7 @@ impl RgbaImage {
     /// Reads an 8-bit RGB or RGBA PNG.
     pub fn load_png(path: &Path) -> Result<Self, ImageError> {
         let name = path.display().to_string();
-        let file = std::fs::File::open(path).map_err(|source| ImageError::Io {
+        let file = crate::infile::open(path).map_err(|source| ImageError::Io {
             path: name.clone(),
             source,
         })?;

@@ -32,9 +32,9 @@ pub struct FileSource {
 }
 
 impl FileSource {
-    /// Opens `path` for reading.
+    /// Opens `path` for reading (a regular file: [`crate::infile`]).
     pub fn open(path: &Path) -> io::Result<Self> {
-        Self::from_file(File::open(path)?)
+        Self::from_file(crate::infile::open(path)?)
     }
 
     /// Reads from an open file.

@@ -55,6 +55,7 @@ pub mod format;
 pub mod front;
 pub mod governor;
 pub mod image;
+pub mod infile;
 pub mod interior;
 pub mod io;
 pub mod limits;

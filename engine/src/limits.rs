@@ -112,12 +112,11 @@ pub fn alloc_bytes(len: u64, what: &str) -> Result<Vec<u8>, LimitError> {
     Ok(v)
 }
 
-/// Reads the file at `path` whole, refusing more than `max` bytes: a
-/// regular file larger than that is refused before reading, anything else
-/// (a pipe, a device such as `/dev/zero`) is read up to `max + 1` bytes.
+/// Reads the regular file at `path` whole ([`crate::infile::open`]: a pipe
+/// or a device such as `/dev/zero` is refused), refusing more than `max`
+/// bytes before reading; one that grows while read is cut at `max + 1`.
 pub fn read_bounded(path: &Path, max: u64) -> io::Result<Vec<u8>> {
-    let file = std::fs::File::open(path)?;
-    let meta = file.metadata()?;
+    let (file, meta) = crate::infile::open_with_meta(path)?;
     let too_large = |len: String| {
         io::Error::new(
             io::ErrorKind::FileTooLarge,

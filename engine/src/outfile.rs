@@ -3,10 +3,14 @@
 //!
 //! - An output is a regular file or a new one: a device (`/dev/null`), a
 //!   directory, a FIFO or a socket is refused, never replaced.
-//! - A symbolic link is followed: its target is what gets written (a
-//!   dangling link is refused), the link itself stays.
+//! - A symbolic link is refused: a writer never writes through a link it
+//!   did not make (a link planted where an output goes would aim the write
+//!   at any file the user can write).
 //! - An output is never one of the command's inputs (same device and inode,
-//!   hard links included).
+//!   hard links included): neither those the caller names nor any file the
+//!   process read through [`crate::infile`] (a glTF's buffers, a path file,
+//!   shards). The check is made when the output is created and again just
+//!   before it is renamed into place.
 //! - It is written to a temporary file beside the target and renamed over it
 //!   only when complete ([`OutputFile::commit`]), so the target appears whole
 //!   or not at all. The temporary file is removed when the writer fails or is
@@ -33,8 +37,11 @@ pub enum OutputError {
     NotRegular { path: PathBuf, what: &'static str },
     #[error("{}: is the input {}; refusing to overwrite it", path.display(), input.display())]
     IsInput { path: PathBuf, input: PathBuf },
-    #[error("{}: is a symbolic link whose target does not exist", path.display())]
-    DanglingLink { path: PathBuf },
+    #[error(
+        "{}: is a symbolic link; refusing to write through it (name its target, or remove the link)",
+        path.display()
+    )]
+    Symlink { path: PathBuf },
     #[error(
         "{}: needs {} free, the file system has {}",
         path.display(),
@@ -98,7 +105,7 @@ impl OutputFile {
         self.tmp.as_ref().expect("not committed").as_file()
     }
 
-    /// Where the output goes (a symbolic link's target, resolved).
+    /// Where the output goes.
     pub fn target(&self) -> &Path {
         &self.target
     }
@@ -106,6 +113,8 @@ impl OutputFile {
     /// Makes the written file the target: mode 0644, synced, renamed over
     /// the target.
     pub fn commit(mut self) -> Result<(), OutputError> {
+        // An input read since the output was created may be the target.
+        resolve_target(&self.target, &[])?;
         let tmp = self.tmp.take().expect("committed once");
         let io_err = |source| OutputError::Io {
             path: self.target.clone(),
@@ -201,12 +210,12 @@ pub fn parent_dir(path: &Path) -> &Path {
 
 /// Checks `path` against the policy without writing anything (a command
 /// that works long before it writes calls this first); returns the path
-/// that will be written (a link's target).
+/// that will be written.
 pub fn check_output(path: &Path, inputs: &[&Path]) -> Result<PathBuf, OutputError> {
     resolve_target(path, inputs)
 }
 
-/// Applies the policy to `path`: the path to write (a link's target).
+/// Applies the policy to `path`: the path to write.
 fn resolve_target(path: &Path, inputs: &[&Path]) -> Result<PathBuf, OutputError> {
     let meta = match std::fs::symlink_metadata(path) {
         Ok(m) => m,
@@ -218,21 +227,15 @@ fn resolve_target(path: &Path, inputs: &[&Path]) -> Result<PathBuf, OutputError>
             });
         }
     };
-    let target = if meta.file_type().is_symlink() {
-        std::fs::canonicalize(path).map_err(|_| OutputError::DanglingLink {
+    if meta.file_type().is_symlink() {
+        return Err(OutputError::Symlink {
             path: path.to_path_buf(),
-        })?
-    } else {
-        path.to_path_buf()
-    };
-    let meta = std::fs::metadata(&target).map_err(|source| OutputError::Io {
-        path: target.clone(),
-        source,
-    })?;
+        });
+    }
     if !meta.is_file() {
         return Err(OutputError::NotRegular {
             path: path.to_path_buf(),
-            what: kind_of(&meta),
+            what: crate::infile::kind_of(&meta),
         });
     }
     for input in inputs {
@@ -245,7 +248,13 @@ fn resolve_target(path: &Path, inputs: &[&Path]) -> Result<PathBuf, OutputError>
             });
         }
     }
-    Ok(target)
+    if let Some(input) = crate::infile::is_input(&meta) {
+        return Err(OutputError::IsInput {
+            path: path.to_path_buf(),
+            input,
+        });
+    }
+    Ok(path.to_path_buf())
 }
 
 fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
@@ -259,30 +268,6 @@ fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
         let _ = (a, b);
         false
     }
-}
-
-fn kind_of(meta: &std::fs::Metadata) -> &'static str {
-    let t = meta.file_type();
-    if t.is_dir() {
-        return "a directory";
-    }
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        if t.is_char_device() {
-            return "a character device";
-        }
-        if t.is_block_device() {
-            return "a block device";
-        }
-        if t.is_fifo() {
-            return "a FIFO";
-        }
-        if t.is_socket() {
-            return "a socket";
-        }
-    }
-    "not a regular file"
 }
 
 /// A new temporary output in `dir`, locked. It is made under a claim name
@@ -447,26 +432,41 @@ mod tests {
 
     #[cfg(unix)]
     #[test]
-    fn a_symlink_is_followed_not_replaced() {
+    fn a_symlink_is_refused_and_its_target_untouched() {
         let dir = tempfile::tempdir().unwrap();
         let real = dir.path().join("real.hlod");
         std::fs::write(&real, b"old").unwrap();
         let link = dir.path().join("link.hlod");
         std::os::unix::fs::symlink(&real, &link).unwrap();
-        write_bytes(&link, b"new").unwrap();
-        assert!(
-            std::fs::symlink_metadata(&link)
-                .unwrap()
-                .file_type()
-                .is_symlink()
-        );
-        assert_eq!(std::fs::read(&real).unwrap(), b"new");
+        assert!(matches!(
+            write_bytes(&link, b"new").map_err(|e| e.to_string()),
+            Err(e) if e.contains("symbolic link")
+        ));
+        assert_eq!(std::fs::read(&real).unwrap(), b"old");
         let dangling = dir.path().join("dangling");
         std::os::unix::fs::symlink(dir.path().join("nowhere/x"), &dangling).unwrap();
         assert!(matches!(
             OutputFile::create(&dangling, &[]),
-            Err(OutputError::DanglingLink { .. })
+            Err(OutputError::Symlink { .. })
         ));
+    }
+
+    #[test]
+    fn a_file_the_process_read_is_never_an_output() {
+        let dir = tempfile::tempdir().unwrap();
+        let read = dir.path().join("buffer.bin");
+        std::fs::write(&read, b"data").unwrap();
+        drop(crate::infile::open(&read).unwrap());
+        let e = OutputFile::create(&read, &[]).unwrap_err();
+        assert!(matches!(e, OutputError::IsInput { .. }), "{e}");
+        // Read after the output was created: refused at commit.
+        let late = dir.path().join("late.csv");
+        std::fs::write(&late, b"keep").unwrap();
+        let out = OutputFile::create(&late, &[]).unwrap();
+        drop(crate::infile::open(&late).unwrap());
+        assert!(matches!(out.commit(), Err(OutputError::IsInput { .. })));
+        assert_eq!(std::fs::read(&late).unwrap(), b"keep");
+        assert_eq!(std::fs::read(&read).unwrap(), b"data");
     }
 
     #[test]

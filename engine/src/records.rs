@@ -63,7 +63,12 @@ pub struct FileHeader {
     pub objects_len: u64,
     /// CRC-32 of the object section.
     pub objects_crc: u32,
-    pub reserved: [u32; 9],
+    /// What the scene was built from: a hash of the input's bytes (the
+    /// model and its buffers) and of the build parameters, as the builder
+    /// keys its cache and its shards (zero when not recorded: files of
+    /// earlier builds, scenes built in memory). Inside the header's CRC.
+    pub source_key: [u8; 16],
+    pub reserved: [u32; 5],
 }
 const _: () = assert!(size_of::<FileHeader>() == 192);
 
@@ -118,7 +123,8 @@ impl FileHeaderV1 {
             objects_offset: self.file_len,
             objects_len: 0,
             objects_crc: 0,
-            reserved: [0; 9],
+            source_key: [0; 16],
+            reserved: [0; 5],
         }
     }
 }

@@ -136,6 +136,7 @@ fn build_impl(
         object_count: leaf as u32,
         input_triangles: 2 * leaf as u64,
         origin,
+        source_key: [0; 16],
     };
     let bytes = writer
         .finish_with_objects(&skeleton, &meta, objects)

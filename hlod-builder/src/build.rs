@@ -264,7 +264,8 @@ pub fn build_file_with(
     // The output policy first: a device, a directory or the input itself
     // is refused before any work.
     let out = engine::outfile::OutputFile::create(output, &[input])?;
-    let opened = import::open(input)?;
+    let mut opened = import::open(input)?;
+    opened.scene.source_key = crate::cache::key_bytes(input, params)?;
     // Every import warning is shown now, whatever becomes of the build.
     for w in &opened.scene.warnings {
         tracing::warn!("{}: {w}", input.display());
@@ -548,6 +549,7 @@ fn scene_tail(
         object_count: stats.objects as u32,
         input_triangles: stats.input_triangles,
         origin: scene.origin,
+        source_key: scene.source_key,
     };
     (meta, ObjectTable::encode(&object_infos(scene), leaf_runs))
 }

@@ -3,12 +3,21 @@
 //!
 //! The key is a BLAKE3 hash of the model's bytes, of every external buffer
 //! it names, of the build parameters, and of the builder's version and the
-//! scene format's version; the scene is `DIR/STEM-KEY.hlod`. The directory
-//! is the first of: the caller's choice (`hlod-view --cache DIR`),
-//! `$HLOD_CACHE_DIR`, `$XDG_CACHE_HOME/hlod`, `$HOME/.cache/hlod`, and the
-//! system's temporary directory. Entries are written atomically by
-//! [`crate::build::build_file_reporting`]; an entry that no longer opens is
-//! rebuilt.
+//! scene format's version; the scene is `DIR/STEM-KEY.hlod`, and its header
+//! records the key it was built for ([`engine::FileHeader::source_key`]).
+//!
+//! The directory is the first of: the caller's choice (`hlod-view --cache
+//! DIR`), `$HLOD_CACHE_DIR`, `$XDG_CACHE_HOME/hlod`, `$HOME/.cache/hlod`,
+//! else a private folder of the user's in the system's temporary directory
+//! (`hlod-cache-UID`, mode 0700). It must be the user's and writable by no
+//! one else ([`prepare_dir`]): an entry planted there by another user is
+//! never opened.
+//!
+//! An entry is used only when it is a regular file (not a link) owned by
+//! the user, its header records this model's key, and every rep passes its
+//! checksum ([`check_entry`]); anything else is rebuilt, with a warning
+//! that says why. Entries are written atomically by
+//! [`crate::build::build_file_reporting`].
 
 use std::path::{Path, PathBuf};
 
@@ -28,19 +37,118 @@ pub fn cache_dir(chosen: Option<&Path>) -> PathBuf {
     env("HLOD_CACHE_DIR")
         .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("hlod")))
         .or_else(|| env("HOME").map(|d| d.join(".cache").join("hlod")))
-        .unwrap_or_else(|| std::env::temp_dir().join("hlod-cache"))
+        .unwrap_or_else(|| std::env::temp_dir().join(format!("hlod-cache-{}", user_id())))
 }
 
-/// The cache key of building `input` with `params`: 32 hex digits. The
-/// files are hashed as they are read, a megabyte at a time (opening a
-/// model costs no memory for its key).
+use engine::infile::user_id;
+
+/// Makes `dir` (mode 0700 when new) and checks that it is a directory of
+/// the user's that no other user can write: entries in a folder others
+/// can write could be planted.
+pub fn prepare_dir(dir: &Path) -> Result<(), BuildError> {
+    let io = |source| BuildError::Io {
+        path: dir.to_path_buf(),
+        source,
+    };
+    let mut b = std::fs::DirBuilder::new();
+    b.recursive(true);
+    #[cfg(unix)]
+    std::os::unix::fs::DirBuilderExt::mode(&mut b, 0o700);
+    b.create(dir).map_err(io)?;
+    let meta = std::fs::symlink_metadata(dir).map_err(io)?;
+    let refuse = |why: String| {
+        Err(BuildError::Io {
+            path: dir.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::PermissionDenied,
+                format!("{why}: refusing it as a build cache (choose another with --cache DIR)"),
+            ),
+        })
+    };
+    if meta.file_type().is_symlink() {
+        // A link the user made to a folder of theirs is fine; its target
+        // is checked below.
+        let target = std::fs::metadata(dir).map_err(io)?;
+        return check_dir_meta(&target).or_else(refuse);
+    }
+    check_dir_meta(&meta).or_else(refuse)
+}
+
+fn check_dir_meta(meta: &std::fs::Metadata) -> Result<(), String> {
+    if !meta.is_dir() {
+        return Err("is not a directory".into());
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if meta.uid() != user_id() {
+            return Err(format!(
+                "belongs to user {}, not to you ({})",
+                meta.uid(),
+                user_id()
+            ));
+        }
+        if meta.mode() & 0o022 != 0 {
+            return Err(format!(
+                "can be written by other users (mode {:o})",
+                meta.mode() & 0o7777
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Why the cache entry at `scene` cannot be used for `key`, if it cannot:
+/// not a regular file of the user's, not a scene, built for another key,
+/// or a rep failing its checksum. The entry is read without being taken as
+/// an input of the process, so that a rebuild may replace it.
+pub fn check_entry(scene: &Path, key: &[u8; 16]) -> Result<(), String> {
+    let meta = std::fs::symlink_metadata(scene).map_err(|e| e.to_string())?;
+    if meta.file_type().is_symlink() || !meta.is_file() {
+        return Err(format!("is {}", engine::infile::kind_of(&meta)));
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if meta.uid() != user_id() {
+            return Err(format!("belongs to user {}, not to you", meta.uid()));
+        }
+    }
+    let file = engine::infile::open_unremembered(scene).map_err(|e| e.to_string())?;
+    let src = engine::FileSource::from_file(file).map_err(|e| e.to_string())?;
+    let opened = engine::SceneFile::from_source(src).map_err(|e| e.to_string())?;
+    let found = opened.header().source_key;
+    if &found != key {
+        return Err(if found == [0; 16] {
+            "records no source (built by another hlod-build)".into()
+        } else {
+            format!("was built from another model or with other parameters ({})", hex(&found))
+        });
+    }
+    opened.verify_all_reps().map_err(|e| e.to_string())
+}
+
+/// Lower-case hex digits of `bytes`.
+pub fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The cache key of building `input` with `params`: 32 hex digits of
+/// [`key_bytes`].
 pub fn key(input: &Path, params: &BuildParams) -> Result<String, ImportError> {
+    key_bytes(input, params).map(|k| hex(&k))
+}
+
+/// The 16 bytes that identify building `input` with `params` (what a scene
+/// file's header records as its source). The files are hashed as they are
+/// read, a megabyte at a time (opening a model costs no memory for its key).
+pub fn key_bytes(input: &Path, params: &BuildParams) -> Result<[u8; 16], ImportError> {
     let read_err = |path: &Path, source| ImportError::Read {
         path: path.to_path_buf(),
         source,
     };
     let mut h = blake3::Hasher::new();
-    h.update(b"hlod-build cache v1\0");
+    h.update(b"hlod-build cache v2\0");
     h.update(env!("CARGO_PKG_VERSION").as_bytes());
     h.update(&engine::format::VERSION.to_le_bytes());
     h.update(&crate::lod::SIMPLIFICATION_REVISION.to_le_bytes());
@@ -54,20 +162,15 @@ pub fn key(input: &Path, params: &BuildParams) -> Result<String, ImportError> {
             h.update(b"missing");
         }
     }
-    Ok(h.finalize().to_hex()[..32].to_string())
+    let mut k = [0u8; 16];
+    k.copy_from_slice(&h.finalize().as_bytes()[..16]);
+    Ok(k)
 }
 
 /// Adds a regular file's length and bytes to `h`, read in chunks.
 fn hash_file(h: &mut blake3::Hasher, path: &Path) -> std::io::Result<()> {
     use std::io::Read;
-    let mut f = std::fs::File::open(path)?;
-    let meta = f.metadata()?;
-    if !meta.is_file() {
-        return Err(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "not a regular file",
-        ));
-    }
+    let (mut f, meta) = engine::infile::open_with_meta(path)?;
     h.update(&meta.len().to_le_bytes());
     let mut buf = vec![0u8; 1 << 20];
     loop {
@@ -83,7 +186,7 @@ fn hash_file(h: &mut blake3::Hasher, path: &Path) -> std::io::Result<()> {
 /// chunk, or a whole `.gltf` (bounded reads).
 fn json_part(path: &Path) -> std::io::Result<Vec<u8>> {
     use std::io::Read;
-    let mut f = std::fs::File::open(path)?;
+    let mut f = engine::infile::open(path)?;
     let mut head = [0u8; 20];
     let n = f.read(&mut head)?;
     if n == 20 && &head[..4] == b"glTF" {
@@ -127,7 +230,7 @@ pub struct Cached {
 }
 
 /// The scene of `input` from the cache in `dir`, built first when absent
-/// (or when the entry does not open).
+/// (or when the entry cannot be used: [`check_entry`], said as a warning).
 pub fn cached_scene(
     input: &Path,
     params: &BuildParams,
@@ -135,14 +238,30 @@ pub fn cached_scene(
     report: Report<'_>,
 ) -> Result<Cached, BuildError> {
     report("hashing the model", 0, 0);
+    prepare_dir(dir)?;
     let scene = entry(input, params, dir)?;
-    if scene.is_file() && engine::SceneFile::open(&scene).is_ok() {
-        return Ok(Cached { scene, hit: true });
+    let key = key_bytes(input, params)?;
+    match std::fs::symlink_metadata(&scene) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        _ => {
+            report("checking the cached scene", 0, 0);
+            match check_entry(&scene, &key) {
+                Ok(()) => return Ok(Cached { scene, hit: true }),
+                Err(why) => {
+                    tracing::warn!("{}: cache entry {why}; rebuilding it", scene.display());
+                    // A link or another file type is removed, never
+                    // written through; a scene file is replaced whole.
+                    let meta = std::fs::symlink_metadata(&scene);
+                    if meta.is_ok_and(|m| !m.is_file()) {
+                        std::fs::remove_file(&scene).map_err(|source| BuildError::Io {
+                            path: scene.clone(),
+                            source,
+                        })?;
+                    }
+                }
+            }
+        }
     }
-    std::fs::create_dir_all(dir).map_err(|source| BuildError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
     build_file_reporting(input, &scene, params, false, report)?;
     Ok(Cached { scene, hit: false })
 }

@@ -15,7 +15,7 @@ use hlod_builder::cache::{Cached, cache_dir, cached_scene};
 pub fn is_model(path: &Path) -> bool {
     use std::io::Read;
     let mut head = [0u8; 8];
-    let n = std::fs::File::open(path)
+    let n = engine::infile::open(path)
         .and_then(|mut f| f.read(&mut head))
         .unwrap_or(0);
     if n >= 8 && head == engine::format::MAGIC {

@@ -66,7 +66,7 @@ impl Session {
         color_format: wgpu::TextureFormat,
     ) -> Result<Self> {
         let named = || path.display().to_string();
-        let file = std::fs::File::open(path).with_context(named)?;
+        let file = engine::infile::open(path).with_context(named)?;
         let src = file
             .try_clone()
             .and_then(engine::FileSource::from_file)

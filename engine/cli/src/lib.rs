@@ -9,15 +9,23 @@ use std::str::FromStr;
 
 /// Sets up logging to stderr (warnings of the builder and the I/O thread),
 /// runs `body`, and turns an error into one message ([`report`]) and exit
-/// code 2. Output piped into a reader that stops early (`| head`) ends the
+/// code 2. A run that logged an error (a screenshot that could not be
+/// written, a CSV that failed) but went on to the end exits with 1, never
+/// 0. Output piped into a reader that stops early (`| head`) ends the
 /// program quietly with exit code 141, as SIGPIPE would, instead of a panic
 /// message.
 pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        .with_target(false)
-        .without_time()
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+    use tracing_subscriber::layer::SubscriberExt as _;
+    use tracing_subscriber::util::SubscriberInitExt as _;
+    tracing_subscriber::registry()
+        .with(
+            tracing_subscriber::fmt::layer()
+                .with_writer(std::io::stderr)
+                .with_target(false)
+                .without_time()
+                .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr())),
+        )
+        .with(ErrorCount)
         .init();
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
@@ -26,13 +34,41 @@ pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
         }
     }));
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(body)) {
-        Ok(Ok(())) => ExitCode::SUCCESS,
+        Ok(Ok(())) => match logged_errors() {
+            0 => ExitCode::SUCCESS,
+            n => {
+                eprintln!("error: {n} error(s) logged above");
+                ExitCode::from(1)
+            }
+        },
         Ok(Err(e)) => {
             eprintln!("error: {}", report(&e));
             ExitCode::from(2)
         }
         Err(p) if is_broken_pipe(p.as_ref()) => ExitCode::from(141),
         Err(p) => std::panic::resume_unwind(p),
+    }
+}
+
+static LOGGED_ERRORS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// Errors logged (`tracing::error!`) so far in this process.
+pub fn logged_errors() -> usize {
+    LOGGED_ERRORS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// Counts the error events, so that a run that logged one fails.
+struct ErrorCount;
+
+impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for ErrorCount {
+    fn on_event(
+        &self,
+        event: &tracing::Event<'_>,
+        _: tracing_subscriber::layer::Context<'_, S>,
+    ) {
+        if *event.metadata().level() == tracing::Level::ERROR {
+            LOGGED_ERRORS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
     }
 }
 

@@ -21,6 +21,8 @@ pub struct SceneMeta {
     pub input_triangles: u64,
     /// World position of the scene's origin (stored coordinates are relative to it).
     pub origin: [f64; 3],
+    /// What the scene was built from ([`crate::FileHeader::source_key`]).
+    pub source_key: [u8; 16],
 }
 
 /// An opened scene: the validated header and skeleton in core, the source kept
@@ -97,6 +99,7 @@ impl<S: ByteSource> SceneFile<S> {
             object_count: self.header.object_count,
             input_triangles: self.header.input_triangles,
             origin: self.header.origin,
+            source_key: self.header.source_key,
         }
     }
 

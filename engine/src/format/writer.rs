@@ -127,7 +127,8 @@ impl<W: Write + Seek> SceneWriter<W> {
             objects_offset,
             objects_len: objects.len() as u64,
             objects_crc: crc32fast::hash(objects),
-            reserved: [0; 9],
+            source_key: meta.source_key,
+            reserved: [0; 5],
         };
         header.header_crc = crc32fast::hash(bytemuck::bytes_of(&header));
         self.out.seek(SeekFrom::Start(0))?;

@@ -11,8 +11,14 @@
 //! records, the merged leaves' runs, and its subtree roots' coarsest reps as
 //! floats (what their parents' HLODs are made from: exact, so the merge's
 //! HLODs are the single job's). Shard files are keyed by the input's bytes
-//! and the parameters ([`crate::cache::key`]); the merge refuses a file of
-//! another input, another count, a shard given twice or one missing.
+//! and the parameters ([`crate::cache::key`]) and carry a BLAKE3 digest of
+//! their header and everything after it; the merge refuses a file of
+//! another input, another count, a shard given twice or one missing, and a
+//! shard whose bytes do not match its digest, and checks the merged scene
+//! as `hlod-build info` does before it replaces anything. (A digest proves
+//! the shard is what its job wrote, not that the job ran this builder: one
+//! who holds the input can forge a shard and its digest; run shards only
+//! where their files are trusted.)
 //!
 //! A shard file: the scene format's data section (reps from byte 4096),
 //! then a trailer of records; its first block holds [`ShardHeader`].
@@ -22,6 +28,7 @@ use std::path::{Path, PathBuf};
 
 use engine::format::objects::Run;
 use engine::format::{NodeRecord, RepRecord};
+use engine::FormatError;
 use engine::io::{ByteSource, FileSource};
 
 use super::assemble::Coarse;
@@ -55,7 +62,8 @@ impl std::str::FromStr for ShardSpec {
 }
 
 const MAGIC: [u8; 8] = *b"HLODSHRD";
-const VERSION: u32 = 1;
+/// Version 2 adds the digest.
+const VERSION: u32 = 2;
 
 /// The first bytes of a shard file.
 #[repr(C)]
@@ -70,8 +78,38 @@ pub struct ShardHeader {
     key: [u8; 32],
     trailer_offset: u64,
     trailer_len: u64,
+    /// BLAKE3 of this header (with this field zero) and of the file from
+    /// [`engine::records::BLOCK`] to the trailer's end ([`digest_of`]).
+    digest: [u8; 32],
 }
-const _: () = assert!(std::mem::size_of::<ShardHeader>() == 72);
+const _: () = assert!(std::mem::size_of::<ShardHeader>() == 104);
+
+/// The digest of a shard file whose header is `h`, read from `src`.
+fn digest_of(src: &dyn ByteSource, h: &ShardHeader) -> std::io::Result<[u8; 32]> {
+    let mut head = *h;
+    head.digest = [0; 32];
+    let mut hasher = blake3::Hasher::new();
+    hasher.update(bytemuck::bytes_of(&head));
+    let end = h
+        .trailer_offset
+        .checked_add(h.trailer_len)
+        .filter(|&e| e <= src.len() && h.trailer_offset >= engine::records::BLOCK)
+        .ok_or_else(|| {
+            std::io::Error::new(
+                std::io::ErrorKind::UnexpectedEof,
+                "truncated: the trailer runs past the file's end",
+            )
+        })?;
+    let mut buf = vec![0u8; 1 << 20];
+    let mut at = engine::records::BLOCK;
+    while at < end {
+        let n = (end - at).min(buf.len() as u64) as usize;
+        src.read_at(at, &mut buf[..n])?;
+        hasher.update(&buf[..n]);
+        at += n as u64;
+    }
+    Ok(*hasher.finalize().as_bytes())
+}
 
 /// The subtree roots each shard makes, and the nodes above them all (the
 /// merge's), deepest first.
@@ -275,12 +313,17 @@ pub fn build_shard_file(
         key: [0; 32],
         trailer_offset: end,
         trailer_len: t.len,
+        digest: [0; 32],
     };
     header.key.copy_from_slice(&key.as_bytes()[..32]);
+    w.flush().map_err(io)?;
+    drop(w);
+    let written = FileSource::from_file(out.file().try_clone().map_err(io)?).map_err(io)?;
+    header.digest = digest_of(&written, &header).map_err(io)?;
+    let mut w = out.file();
     w.seek(SeekFrom::Start(0)).map_err(io)?;
     w.write_all(bytemuck::bytes_of(&header)).map_err(io)?;
     w.flush().map_err(io)?;
-    drop(w);
     out.commit()?;
     stats.nodes = made.len() as u64;
     stats.file_bytes = file_len(output)?;
@@ -290,7 +333,7 @@ pub fn build_shard_file(
 
 /// A shard file's header, checked against the merge's key.
 fn read_header(path: &Path, key: &str) -> Result<ShardHeader, String> {
-    let mut f = std::fs::File::open(path).map_err(|e| format!("cannot read: {e}"))?;
+    let mut f = engine::infile::open(path).map_err(|e| format!("cannot read: {e}"))?;
     let mut b = [0u8; std::mem::size_of::<ShardHeader>()];
     f.read_exact(&mut b)
         .map_err(|_| "not a shard file (too short)".to_string())?;
@@ -318,10 +361,17 @@ fn read_header(path: &Path, key: &str) -> Result<ShardHeader, String> {
     Ok(h)
 }
 
+/// What the shard file holds, its digest checked first.
 fn read_data(src: &FileSource, h: &ShardHeader, tree_len: usize) -> Result<ShardData, String> {
     let end = h.trailer_offset.checked_add(h.trailer_len);
     if end.is_none_or(|e| e > src.len()) || h.trailer_len > usize::MAX as u64 {
         return Err("truncated: the trailer runs past the file's end".into());
+    }
+    if digest_of(src, h).map_err(|e| format!("cannot read: {e}"))? != h.digest {
+        return Err(
+            "its bytes do not match its digest (damaged, or altered after its job wrote it)"
+                .into(),
+        );
     }
     let mut bytes = vec![0u8; h.trailer_len as usize];
     src.read_at(h.trailer_offset, &mut bytes)
@@ -436,7 +486,8 @@ pub fn merge_files(
             "shard {i}/{n} is missing (the output of `hlod-build build --shard {i}/{n}`)"
         )));
     }
-    let opened = crate::import::open(input)?;
+    let mut opened = crate::import::open(input)?;
+    opened.scene.source_key = crate::cache::key_bytes(input, params)?;
     let write_err = |source| BuildError::Write {
         path: output.to_path_buf(),
         source,
@@ -533,6 +584,20 @@ pub fn merge_files(
     .map_err(write_err)?;
     sink.flush().map_err(|e| write_err(e.into()))?;
     drop(sink);
+    // The merged scene is checked as `hlod-build info` checks a scene
+    // (header, skeleton, every rep) before it replaces anything.
+    let written = out.file().try_clone().map_err(|e| write_err(e.into()))?;
+    let check = FileSource::from_file(written)
+        .map_err(FormatError::from)
+        .and_then(engine::SceneFile::from_source)
+        .and_then(|s| s.verify_all_reps());
+    check.map_err(|e| {
+        BuildError::Shard(format!(
+            "{}: the merged scene fails its check ({e}); nothing was written: were the shards \
+             built with this input and parameters?",
+            output.display()
+        ))
+    })?;
     out.commit()?;
     super::skeleton_stats(&mut stats, &skeleton, objects.len());
     stats.cells = u64::from(n);

@@ -46,6 +46,11 @@ impl Opened {
     pub fn path(&self) -> &Path {
         &self.path
     }
+
+    /// The scene alone (its meshes empty).
+    pub fn into_scene(self) -> Imported {
+        self.scene
+    }
 }
 
 const CHUNK_JSON: u32 = 0x4E4F_534A;
@@ -62,8 +67,7 @@ pub fn open(path: &Path) -> Result<Opened, ImportError> {
         path: path.to_path_buf(),
         what,
     };
-    let meta = super::regular_file(path)?;
-    let file = std::fs::File::open(path).map_err(read_err)?;
+    let (file, meta) = engine::infile::open_with_meta(path).map_err(read_err)?;
     let size = meta.len();
     let mut head = [0u8; 12];
     let n = (&file).take(12).read(&mut head).map_err(read_err)?;
@@ -195,23 +199,15 @@ fn buffers(
                 BufData::Mem(v.pop().unwrap_or_default())
             }
             Some(uri) => {
-                let path = base_dir.join(super::percent_decode(uri));
+                let path = super::resolve_uri(i, uri, base_dir)?;
                 let cannot = |e: std::io::Error| {
                     format!("buffers[{i}]: cannot read {}: {e}", path.display())
                 };
-                let f = std::fs::File::open(&path).map_err(cannot)?;
-                let m = f.metadata().map_err(cannot)?;
-                if m.is_dir() {
-                    return Err(cannot(std::io::ErrorKind::IsADirectory.into()));
-                }
-                if m.is_file() {
-                    BufData::File {
-                        file: f,
-                        offset: 0,
-                        len: m.len().min(buf.byte_length),
-                    }
-                } else {
-                    BufData::Mem(super::read_buffer_file(&path, buf.byte_length).map_err(cannot)?)
+                let (file, m) = engine::infile::open_with_meta(&path).map_err(cannot)?;
+                BufData::File {
+                    file,
+                    offset: 0,
+                    len: m.len().min(buf.byte_length),
                 }
             }
         };

@@ -92,6 +92,9 @@ pub struct Imported {
     /// name is its instances').
     pub mesh_info: Vec<(Option<String>, Option<Value>)>,
     pub node_extras: Vec<Option<Value>>,
+    /// What a build of it records as its source ([`crate::cache::key`];
+    /// zero unless the builder sets it).
+    pub source_key: [u8; 16],
 }
 
 /// What is known of a usable mesh without its geometry.
@@ -169,32 +172,84 @@ pub fn max_input_bytes() -> u64 {
 /// then holds them to better than 0.25 mm); others get their box centre.
 pub const ORIGIN_FREE_EXTENT: f64 = 4096.0;
 
-/// Loads `path`.
+/// Loads `path` with its geometry in memory. It is [`open`]ed first, so
+/// only the byte ranges its accessors use are read from its buffers (a
+/// model whose `.bin` is mostly unused costs what it uses, not the file).
 pub fn load(path: &Path) -> Result<Imported, ImportError> {
-    let read_err = |source| ImportError::Read {
-        path: path.to_path_buf(),
-        source,
-    };
-    regular_file(path)?;
-    let bytes = engine::limits::read_bounded(path, max_input_bytes()).map_err(read_err)?;
-    load_slice(&bytes, path.parent().unwrap_or(Path::new(".")), path)
+    let opened = open(path)?;
+    let meshes = (0..opened.scene.meta.len())
+        .map(|m| opened.mesh(m))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut scene = opened.into_scene();
+    scene.meshes = meshes;
+    Ok(scene)
 }
 
-/// The metadata of `path`, a regular file (a pipe or a device such as
-/// `/dev/zero` has no length to bound the read by; a directory none at all).
-pub(super) fn regular_file(path: &Path) -> Result<std::fs::Metadata, ImportError> {
-    let read_err = |source| ImportError::Read {
-        path: path.to_path_buf(),
-        source,
-    };
-    let meta = std::fs::metadata(path).map_err(read_err)?;
-    if !meta.is_file() {
-        return Err(read_err(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "not a regular file (a directory, pipe or device): save the model to a file first",
-        )));
+/// Folders besides a model's own from which its buffers may be read
+/// ([`allow_dir`]), canonical.
+static ALLOWED_DIRS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Lets glTF buffer `uri`s name files under `dir` too (the binaries'
+/// `--allow-dir`); by default a model reads only files inside its own
+/// folder.
+pub fn allow_dir(dir: &Path) -> std::io::Result<()> {
+    let canon = std::fs::canonicalize(dir)?;
+    if !canon.is_dir() {
+        return Err(std::io::ErrorKind::NotADirectory.into());
     }
-    Ok(meta)
+    ALLOWED_DIRS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(canon);
+    Ok(())
+}
+
+/// The file a buffer's relative `uri` names, resolved against `base_dir`:
+/// refused when it leaves that folder (`..`, an absolute path, a link out
+/// of it) and no [`allow_dir`] folder holds it, so that a model cannot
+/// build any local file into a scene a user may publish.
+pub(super) fn resolve_uri(i: usize, uri: &str, base_dir: &Path) -> Result<PathBuf, String> {
+    let decoded = percent_decode(uri);
+    let base_dir = if base_dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base_dir
+    };
+    let joined = base_dir.join(&decoded);
+    let base = std::fs::canonicalize(base_dir)
+        .map_err(|e| format!("buffers[{i}]: the model's folder: {e}"))?;
+    // A file that does not exist is its reader's error to report, but only
+    // once it is known not to leave the folder by its name alone.
+    let target = match std::fs::canonicalize(&joined) {
+        Ok(t) => t,
+        Err(_) => lexical(&base.join(&decoded)),
+    };
+    let allowed = ALLOWED_DIRS.lock().unwrap_or_else(|e| e.into_inner());
+    if target.starts_with(&base) || allowed.iter().any(|d| target.starts_with(d)) {
+        return Ok(target);
+    }
+    Err(format!(
+        "buffers[{i}]: uri {uri:?} names {}, outside the model's folder {}: a model may only \
+         read files beside it (--allow-dir DIR allows another folder)",
+        target.display(),
+        base.display()
+    ))
+}
+
+/// `p` with `.` and `..` components folded (no file system access).
+fn lexical(p: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out = PathBuf::new();
+    for c in p.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                out.pop();
+            }
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// Loads glTF or GLB bytes; external buffers are resolved against `base_dir`,
@@ -366,7 +421,7 @@ pub(super) fn load_buffers(
                         .decode(b64)
                         .map_err(|e| format!("buffers[{i}]: bad base64: {e}"))?
                 } else {
-                    let file = base_dir.join(percent_decode(uri));
+                    let file = resolve_uri(i, uri, base_dir)?;
                     read_buffer_file(&file, buf.byte_length)
                         .map_err(|e| format!("buffers[{i}]: cannot read {}: {e}", file.display()))?
                 }
@@ -405,10 +460,7 @@ pub(super) fn read_buffer_file(file: &Path, len: u64) -> std::io::Result<Vec<u8>
             ),
         ));
     }
-    let f = std::fs::File::open(file)?;
-    if f.metadata()?.is_dir() {
-        return Err(std::io::ErrorKind::IsADirectory.into());
-    }
+    let f = engine::infile::open(file)?;
     let mut out = Vec::new();
     out.try_reserve_exact(len as usize)
         .map_err(|_| std::io::Error::from(std::io::ErrorKind::OutOfMemory))?;
@@ -435,9 +487,10 @@ pub(super) fn percent_decode(s: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
-/// The external files a glTF's buffers name (resolved against `base_dir`),
-/// for keying a build cache by everything the model is made of; none for
-/// a file that does not parse (its build reports why).
+/// The external files a glTF's buffers name (resolved against `base_dir`;
+/// one that leaves it is left out, its build refuses it), for keying a
+/// build cache by everything the model is made of; none for a file that
+/// does not parse (its build reports why).
 pub fn external_files(bytes: &[u8], base_dir: &Path) -> Vec<PathBuf> {
     let Ok((json, _)) = doc::split(bytes) else {
         return Vec::new();
@@ -449,6 +502,7 @@ pub fn external_files(bytes: &[u8], base_dir: &Path) -> Vec<PathBuf> {
         .iter()
         .filter_map(|b| b.uri.as_deref())
         .filter(|u| !u.starts_with("data:"))
-        .map(|u| base_dir.join(percent_decode(u)))
+        .enumerate()
+        .filter_map(|(i, u)| resolve_uri(i, u, base_dir).ok())
         .collect()
 }

@@ -147,6 +147,21 @@ pub fn place(
         }
     }
     let roots = roots(doc, warnings)?;
+    // A node with several parents is placed under each: count what the
+    // walk would visit before walking (a DAG of 60 levels of two edges to
+    // the next visits 2^60 nodes).
+    let visits_needed = expansion(doc, &roots)?;
+    if visits_needed > MAX_PLACEMENTS as u64 {
+        return Err(format!(
+            "the node hierarchy places nodes more than {MAX_PLACEMENTS} times (nodes shared \
+             by several parents expand to {} placements)",
+            if visits_needed == u64::MAX {
+                "more than 2^64".to_string()
+            } else {
+                visits_needed.to_string()
+            }
+        ));
+    }
     // Depth-first, with the nodes on the current path marked: a child on
     // the path is a cycle. A node with two parents is placed under each.
     enum Step {
@@ -183,6 +198,7 @@ pub fn place(
         let world = parent * local(node);
         if let Some(m) = node.mesh
             && let Some(b) = &boxes[m]
+            && !degenerate(i, &world, warnings)
         {
             match instances(bufs, i, node)? {
                 None => {
@@ -224,6 +240,70 @@ pub fn place(
         }
     }
     Ok(out)
+}
+
+/// Whether node `i`'s world transform collapses its mesh (a zero scale, a
+/// zero or singular matrix: every triangle would land on a point, a line
+/// or a plane); said as a warning naming the node, and the mesh skipped.
+fn degenerate(i: usize, world: &DMat4, warnings: &mut Vec<String>) -> bool {
+    let det = world.determinant();
+    let scale = [world.x_axis, world.y_axis, world.z_axis]
+        .map(|a| a.truncate().length())
+        .into_iter()
+        .fold(0.0f64, f64::max);
+    // Relative to the largest axis: a tiny but uniform scale is fine.
+    let flat = !(det.abs() > 1e-12 * scale.powi(3)) || scale == 0.0;
+    if flat && world.is_finite() {
+        warnings.push(format!(
+            "nodes[{i}]: its transform is degenerate (determinant {det:.3e}: a zero scale or a \
+             singular matrix collapses the mesh), skipped"
+        ));
+    }
+    flat && world.is_finite()
+}
+
+/// How many node visits the walk from `roots` makes (a node shared by
+/// several parents counts under each), saturating; a cycle is an error.
+fn expansion(doc: &Doc, roots: &[usize]) -> Result<u64, String> {
+    const UNSEEN: u64 = u64::MAX - 1;
+    const OPEN: u64 = u64::MAX - 2;
+    let n = doc.nodes.len();
+    let mut count = vec![UNSEEN; n];
+    let mut stack: Vec<(usize, usize)> = Vec::new();
+    let mut total = 0u64;
+    for &r in roots {
+        if count[r] == UNSEEN {
+            count[r] = OPEN;
+            stack.push((r, 0));
+        }
+        while let Some(top) = stack.last_mut() {
+            let i = top.0;
+            let children = &doc.nodes[i].children;
+            if let Some(&c) = children.get(top.1) {
+                top.1 += 1;
+                match count[c] {
+                    OPEN => {
+                        return Err(format!(
+                            "nodes[{c}] is its own ancestor: the node hierarchy has a cycle"
+                        ));
+                    }
+                    UNSEEN => {
+                        count[c] = OPEN;
+                        stack.push((c, 0));
+                    }
+                    _ => {}
+                }
+                continue;
+            }
+            stack.pop();
+            count[i] = children
+                .iter()
+                .fold(1u64, |s, &c| s.saturating_add(count[c]))
+                .min(u64::MAX - 3);
+        }
+        total = total.saturating_add(count[r]);
+    }
+    Ok(total)
 }
 
 fn out_of_range(node: usize, instance: Option<usize>, world: &DMat4) -> String {

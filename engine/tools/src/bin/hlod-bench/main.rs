@@ -222,7 +222,7 @@ fn run(a: Args) -> Result<()> {
     // The scene is opened once and held for the whole run: every mode
     // reads the same file even if its path is replaced meanwhile.
     let scene_name = a.scene.display().to_string();
-    let file = std::fs::File::open(&a.scene).with_context(|| scene_name.clone())?;
+    let file = engine::infile::open(&a.scene).with_context(|| scene_name.clone())?;
     let scene = SceneFile::from_source(FileSource::from_file(file.try_clone()?)?)
         .with_context(|| scene_name.clone())?;
     let skel = Arc::new(scene.skeleton().clone());
