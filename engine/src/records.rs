@@ -257,6 +257,17 @@ impl RepRecord {
         self.resident_len() + u64::from(self.aux)
     }
 
+    /// Bytes a load of this rep needs besides its resident payload: its
+    /// compressed copy while it is decoded (none for a paged rep or one
+    /// stored raw).
+    pub fn load_scratch(&self) -> u64 {
+        if self.is_paged() || self.resident_len() == u64::from(self.len) {
+            0
+        } else {
+            u64::from(self.len)
+        }
+    }
+
     /// Whether this rep is a view-dependence tree.
     pub fn is_vdt(&self) -> bool {
         self.kind == RepKind::Vdt as u16

@@ -122,7 +122,10 @@ pub fn check_entry(scene: &Path, key: &[u8; 16]) -> Result<(), String> {
         return Err(if found == [0; 16] {
             "records no source (built by another hlod-build)".into()
         } else {
-            format!("was built from another model or with other parameters ({})", hex(&found))
+            format!(
+                "was built from another model or with other parameters ({})",
+                hex(&found)
+            )
         });
     }
     opened.verify_all_reps().map_err(|e| e.to_string())

@@ -20,6 +20,10 @@ use hlod_builder::summary::{TABLE_HEADER, human_bytes, stats_of, table_row};
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
+    /// A folder a glTF's buffer and image `uri`s may name besides the
+    /// model's own (repeatable); a `uri` that leaves both is refused.
+    #[arg(long, global = true, value_name = "DIR")]
+    allow_dir: Vec<PathBuf>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -156,6 +160,10 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> Result<()> {
+    for dir in &cli.allow_dir {
+        hlod_builder::import::allow_dir(dir)
+            .with_context(|| format!("--allow-dir {}", dir.display()))?;
+    }
     match cli.cmd {
         Cmd::Build(a) => build_cmd::build(a),
         Cmd::Merge { build, shards } => build_cmd::merge(build, &shards),

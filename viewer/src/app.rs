@@ -31,6 +31,10 @@ const HISTORY: usize = 300;
 
 /// Runs the viewer until the window closes or `--exit-after` frames.
 pub fn run(args: Args) -> Result<()> {
+    for dir in &args.allow_dir {
+        hlod_builder::import::allow_dir(dir)
+            .with_context(|| format!("--allow-dir {}", dir.display()))?;
+    }
     let settings = initial_settings(&args)?;
     let path = match &args.path {
         Some(p) => Some(read_path(p)?),

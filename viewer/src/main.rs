@@ -43,6 +43,10 @@ pub struct Args {
     /// $HLOD_CACHE_DIR, else $XDG_CACHE_HOME/hlod, else ~/.cache/hlod).
     #[arg(long)]
     pub cache: Option<PathBuf>,
+    /// A folder a model's buffer and image `uri`s may name besides the
+    /// model's own (repeatable); a `uri` that leaves both is refused.
+    #[arg(long, value_name = "DIR")]
+    pub allow_dir: Vec<PathBuf>,
     /// incore, nopre or pre.
     #[arg(long, default_value = "pre")]
     pub mode: String,

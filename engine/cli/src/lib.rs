@@ -61,11 +61,7 @@ pub fn logged_errors() -> usize {
 struct ErrorCount;
 
 impl<S: tracing::Subscriber> tracing_subscriber::Layer<S> for ErrorCount {
-    fn on_event(
-        &self,
-        event: &tracing::Event<'_>,
-        _: tracing_subscriber::layer::Context<'_, S>,
-    ) {
+    fn on_event(&self, event: &tracing::Event<'_>, _: tracing_subscriber::layer::Context<'_, S>) {
         if *event.metadata().level() == tracing::Level::ERROR {
             LOGGED_ERRORS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         }
@@ -196,9 +192,10 @@ pub const AUTO_BUDGET_CAP: u64 = 1 << 30;
 /// `--budget auto` for a scene: all its rep data up to [`AUTO_BUDGET_CAP`]
 /// and a quarter of this machine's memory, and never less than its minimal
 /// front plus room to load its largest rep (the root's coarsest rep, which
-/// stays resident, plus the largest extent), so that it can always be shown
-/// and refined.
+/// stays resident, plus the largest rep, each with the compressed copy it
+/// needs while it loads), so that it can always be shown and refined.
 pub fn auto_budget(skeleton: &engine::Skeleton) -> u64 {
+    let loading = |r: &engine::RepRecord| r.expanded_extent() + r.load_scratch();
     let data: u64 = skeleton
         .reps
         .iter()
@@ -207,16 +204,13 @@ pub fn auto_budget(skeleton: &engine::Skeleton) -> u64 {
     let root = skeleton
         .nodes
         .first()
-        .and_then(|n| skeleton.reps.get(n.first_rep as usize))
-        .map_or(0, engine::RepRecord::expanded_extent);
-    let largest = skeleton
-        .reps
-        .iter()
-        .map(engine::RepRecord::expanded_extent)
-        .max()
-        .unwrap_or(0);
+        .and_then(|n| skeleton.reps.get(n.first_rep as usize));
+    let root_resident = root.map_or(0, engine::RepRecord::expanded_extent);
+    let root_loading = root.map_or(0, loading);
+    let largest = skeleton.reps.iter().map(loading).max().unwrap_or(0);
     let cap = AUTO_BUDGET_CAP.min(engine::limits::memory_total() / 4);
-    data.min(cap).max(root + largest).max(1)
+    let floor = root_loading.max(root_resident.saturating_add(largest));
+    data.min(cap).max(floor).max(1)
 }
 
 #[cfg(test)]

@@ -658,11 +658,7 @@ impl Loader {
 /// is read into a buffer of its stored size and then expanded, and both
 /// count until the stored bytes are dropped.
 pub(super) fn load_scratch(rec: &RepRecord) -> u64 {
-    if rec.is_paged() || rec.resident_len() == u64::from(rec.len) {
-        0
-    } else {
-        u64::from(rec.len)
-    }
+    rec.load_scratch()
 }
 
 /// Footprint of rep `r` while resident: its payload, and the reserve of a

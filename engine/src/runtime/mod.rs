@@ -23,6 +23,8 @@
 //! The two threads talk over bounded `crossbeam-channel`s only.
 
 #[cfg(test)]
+mod edge_tests;
+#[cfg(test)]
 mod fade_tests;
 #[cfg(test)]
 mod fault_tests;

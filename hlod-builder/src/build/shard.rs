@@ -26,9 +26,9 @@
 use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
+use engine::FormatError;
 use engine::format::objects::Run;
 use engine::format::{NodeRecord, RepRecord};
-use engine::FormatError;
 use engine::io::{ByteSource, FileSource};
 
 use super::assemble::Coarse;
@@ -369,8 +369,7 @@ fn read_data(src: &FileSource, h: &ShardHeader, tree_len: usize) -> Result<Shard
     }
     if digest_of(src, h).map_err(|e| format!("cannot read: {e}"))? != h.digest {
         return Err(
-            "its bytes do not match its digest (damaged, or altered after its job wrote it)"
-                .into(),
+            "its bytes do not match its digest (damaged, or altered after its job wrote it)".into(),
         );
     }
     let mut bytes = vec![0u8; h.trailer_len as usize];
