@@ -7,25 +7,63 @@
 //!   non-blocking (so opening a FIFO with no writer cannot hang) and its
 //!   type checked on the open handle (so swapping the path between a check
 //!   and the open changes nothing).
-//! - Every input opened here is remembered for the life of the process, by
-//!   device and inode ([`is_input`]). The output policy refuses to write any
-//!   of them, so no command overwrites a file it read, whichever of its
-//!   options named it (a glTF's external buffer, a path file, a shard).
+//! - In a command-line program ([`track_inputs`], which every binary of the
+//!   workspace calls first through `engine_cli::main_with`), every input
+//!   opened here is remembered for the life of the process, by device,
+//!   inode and birth time ([`is_input`]). The output policy refuses to
+//!   write any of them, so no command overwrites a file it read, whichever
+//!   of its options named it (a glTF's external buffer, a path file, a
+//!   shard). A library user that runs many jobs in one process (the tests
+//!   build one scene after another into one file) leaves tracking off and
+//!   names each job's inputs to the output policy itself.
 
 use std::fs::{File, Metadata};
 use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-/// One file read by this process.
+/// One file read by this process: its device and inode, and its birth
+/// time where the file system records one. An inode number is reused once
+/// its file is deleted; the birth time tells the new file from the input
+/// (a long-running process, or the tests of one crate in one process, see
+/// many files come and go).
 #[derive(Clone, Debug, PartialEq, Eq)]
 struct Input {
-    dev: u64,
-    ino: u64,
+    id: FileId,
     path: PathBuf,
 }
 
+/// What makes a file the same file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct FileId {
+    dev: u64,
+    ino: u64,
+    born: Option<std::time::SystemTime>,
+}
+
+impl FileId {
+    /// The same file: same device and inode, and the same birth time where
+    /// both know one (without one, the device and inode decide, erring on
+    /// the side of refusing an output).
+    fn same(&self, other: &FileId) -> bool {
+        self.dev == other.dev
+            && self.ino == other.ino
+            && match (self.born, other.born) {
+                (Some(a), Some(b)) => a == b,
+                _ => true,
+            }
+    }
+}
+
 static INPUTS: Mutex<Vec<Input>> = Mutex::new(Vec::new());
+
+static TRACKING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// From now on, every input this process opens through this module is
+/// one of its inputs until it exits (see the module documentation).
+pub fn track_inputs() {
+    TRACKING.store(true, std::sync::atomic::Ordering::Relaxed);
+}
 
 fn inputs() -> std::sync::MutexGuard<'static, Vec<Input>> {
     INPUTS.lock().unwrap_or_else(|e| e.into_inner())
@@ -69,10 +107,10 @@ pub fn register(path: &Path) {
 
 /// The input of this process that `meta` is (same device and inode), if any.
 pub fn is_input(meta: &Metadata) -> Option<PathBuf> {
-    let (dev, ino) = id(meta)?;
+    let id = id(meta)?;
     inputs()
         .iter()
-        .find(|i| i.dev == dev && i.ino == ino)
+        .find(|i| i.id.same(&id))
         .map(|i| i.path.clone())
 }
 
@@ -137,22 +175,28 @@ pub fn user_id() -> u32 {
 }
 
 fn remember(meta: &Metadata, path: &Path) {
-    let Some((dev, ino)) = id(meta) else { return };
+    if !TRACKING.load(std::sync::atomic::Ordering::Relaxed) {
+        return;
+    }
+    let Some(id) = id(meta) else { return };
     let mut v = inputs();
-    if !v.iter().any(|i| i.dev == dev && i.ino == ino) {
+    if !v.iter().any(|i| i.id == id) {
         v.push(Input {
-            dev,
-            ino,
+            id,
             path: path.to_path_buf(),
         });
     }
 }
 
-fn id(meta: &Metadata) -> Option<(u64, u64)> {
+fn id(meta: &Metadata) -> Option<FileId> {
     #[cfg(unix)]
     {
         use std::os::unix::fs::MetadataExt;
-        Some((meta.dev(), meta.ino()))
+        Some(FileId {
+            dev: meta.dev(),
+            ino: meta.ino(),
+            born: meta.created().ok(),
+        })
     }
     #[cfg(not(unix))]
     {
@@ -181,6 +225,7 @@ mod tests {
 
     #[test]
     fn regular_files_open_and_are_remembered_devices_and_folders_do_not() {
+        track_inputs();
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("a.txt");
         std::fs::write(&f, b"x").unwrap();
@@ -199,6 +244,28 @@ mod tests {
         ] {
             let e = open(p).unwrap_err();
             assert!(e.to_string().contains(what), "{e}");
+        }
+    }
+
+    #[test]
+    fn a_new_file_on_a_deleted_inputs_inode_is_not_that_input() {
+        track_inputs();
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("gone.txt");
+        std::fs::write(&f, b"x").unwrap();
+        let (_, meta) = open_with_meta(&f).unwrap();
+        if meta.created().is_err() {
+            return; // a file system without birth times: inodes decide
+        }
+        std::fs::remove_file(&f).unwrap();
+        // Files made until one takes the freed inode (most file systems
+        // hand it out again at once); none of them is the input.
+        use std::os::unix::fs::MetadataExt;
+        for k in 0..64 {
+            let g = dir.path().join(format!("new{k}.txt"));
+            std::fs::write(&g, b"y").unwrap();
+            let m = std::fs::metadata(&g).unwrap();
+            assert_eq!(is_input(&m), None, "inode {} reused", m.ino());
         }
     }
 

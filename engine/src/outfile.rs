@@ -453,6 +453,7 @@ mod tests {
 
     #[test]
     fn a_file_the_process_read_is_never_an_output() {
+        crate::infile::track_inputs();
         let dir = tempfile::tempdir().unwrap();
         let read = dir.path().join("buffer.bin");
         std::fs::write(&read, b"data").unwrap();

@@ -57,6 +57,31 @@ impl Skeleton {
         self.nodes.first()
     }
 
+    /// Bytes the whole scene takes in core (every rep as it is resident,
+    /// compressed reps expanded) with room to load its largest compressed
+    /// rep (the compressed copy it needs while it is expanded): what a
+    /// footprint of 100% means, so that a walk at 100% can load everything.
+    pub fn in_core_bytes(&self) -> u64 {
+        let data: u64 = self.reps.iter().map(RepRecord::expanded_extent).sum();
+        let scratch = self.reps.iter().map(RepRecord::load_scratch).max();
+        data.saturating_add(scratch.unwrap_or(0))
+    }
+
+    /// The smallest footprint under which every rep can be drawn as itself:
+    /// the root's coarsest rep (always resident) beside the largest rep
+    /// while it loads (or the root's own load, if larger). Below it, the
+    /// reps that do not fit are drawn as coarser ancestors on every frame.
+    pub fn full_detail_bytes(&self) -> u64 {
+        let loading = |r: &RepRecord| r.expanded_extent() + r.load_scratch();
+        let root = self
+            .root()
+            .and_then(|n| self.reps.get(n.first_rep as usize));
+        let root_resident = root.map_or(0, RepRecord::expanded_extent);
+        let root_loading = root.map_or(0, loading);
+        let largest = self.reps.iter().map(loading).max().unwrap_or(0);
+        root_loading.max(root_resident.saturating_add(largest))
+    }
+
     /// Children node ids of `node`.
     pub fn children(&self, node: u32) -> std::ops::Range<u32> {
         let n = &self.nodes[node as usize];

@@ -263,7 +263,9 @@ pub fn build_file_with(
     let t0 = Instant::now();
     // The output policy first: a device, a directory or the input itself
     // is refused before any work.
-    let out = engine::outfile::OutputFile::create(output, &[input])?;
+    let inputs = import::model_files(input);
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    let out = engine::outfile::OutputFile::create(output, &inputs)?;
     let mut opened = import::open(input)?;
     opened.scene.source_key = crate::cache::key_bytes(input, params)?;
     // Every import warning is shown now, whatever becomes of the build.

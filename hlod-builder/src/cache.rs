@@ -26,14 +26,18 @@ use crate::import::{self, ImportError};
 
 /// The cache directory (see the module documentation).
 pub fn cache_dir(chosen: Option<&Path>) -> PathBuf {
+    cache_dir_in(chosen, |k| std::env::var_os(k))
+}
+
+/// [`cache_dir`] with the environment given.
+fn cache_dir_in(
+    chosen: Option<&Path>,
+    var: impl Fn(&str) -> Option<std::ffi::OsString>,
+) -> PathBuf {
     if let Some(d) = chosen {
         return d.to_path_buf();
     }
-    let env = |k: &str| {
-        std::env::var_os(k)
-            .filter(|v| !v.is_empty())
-            .map(PathBuf::from)
-    };
+    let env = |k: &str| var(k).filter(|v| !v.is_empty()).map(PathBuf::from);
     env("HLOD_CACHE_DIR")
         .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("hlod")))
         .or_else(|| env("HOME").map(|d| d.join(".cache").join("hlod")))
@@ -116,6 +120,13 @@ pub fn check_entry(scene: &Path, key: &[u8; 16]) -> Result<(), String> {
     }
     let file = engine::infile::open_unremembered(scene).map_err(|e| e.to_string())?;
     let src = engine::FileSource::from_file(file).map_err(|e| e.to_string())?;
+    check_entry_source(src, key)
+}
+
+/// The checks of [`check_entry`] on an entry's bytes: a scene, built for
+/// `key` (its header records it), every rep passing its checksum (the fuzz
+/// target's entry: `tests/fuzz/fuzz_targets/cache_entry.rs`).
+pub fn check_entry_source<S: engine::ByteSource>(src: S, key: &[u8; 16]) -> Result<(), String> {
     let opened = engine::SceneFile::from_source(src).map_err(|e| e.to_string())?;
     let found = opened.header().source_key;
     if &found != key {
@@ -157,7 +168,7 @@ pub fn key_bytes(input: &Path, params: &BuildParams) -> Result<[u8; 16], ImportE
     h.update(&crate::lod::SIMPLIFICATION_REVISION.to_le_bytes());
     h.update(format!("{params:?}").as_bytes());
     hash_file(&mut h, input).map_err(|e| read_err(input, e))?;
-    let head = json_part(input).map_err(|e| read_err(input, e))?;
+    let head = import::json_part(input).map_err(|e| read_err(input, e))?;
     let base = input.parent().unwrap_or(Path::new("."));
     for f in import::external_files(&head, base) {
         // A missing buffer is the build's error to report; it keys as absent.
@@ -183,27 +194,6 @@ fn hash_file(h: &mut blake3::Hasher, path: &Path) -> std::io::Result<()> {
         }
         h.update(&buf[..n]);
     }
-}
-
-/// The part of a model that names its buffers: a `.glb`'s header and JSON
-/// chunk, or a whole `.gltf` (bounded reads).
-fn json_part(path: &Path) -> std::io::Result<Vec<u8>> {
-    use std::io::Read;
-    let mut f = engine::infile::open(path)?;
-    let mut head = [0u8; 20];
-    let n = f.read(&mut head)?;
-    if n == 20 && &head[..4] == b"glTF" {
-        let json_len = u64::from(u32::from_le_bytes([head[12], head[13], head[14], head[15]]));
-        let mut out = head.to_vec();
-        f.take(json_len.min(import::max_input_bytes()))
-            .read_to_end(&mut out)?;
-        // A container cut after its JSON chunk: the length field is patched
-        // so that the JSON parses alone.
-        let total = out.len() as u32;
-        out[8..12].copy_from_slice(&total.to_le_bytes());
-        return Ok(out);
-    }
-    engine::limits::read_bounded(path, import::max_input_bytes())
 }
 
 /// Where the cached scene of `input` lives.
@@ -318,6 +308,102 @@ mod tests {
         engine::SceneFile::open(&again.scene).unwrap();
     }
 
+    /// A model, its cache folder and its entry's path.
+    fn cached_model(dir: &Path, seed: u64) -> (PathBuf, PathBuf, PathBuf) {
+        let model = dir.join(format!("m{seed}.glb"));
+        crate::scenegen::plant::write_plant(
+            &crate::scenegen::plant::PlantParams {
+                seed,
+                objects: 12,
+                triangles: 4_000,
+            },
+            &model,
+        )
+        .unwrap();
+        let cache = dir.join("cache");
+        let e = entry(&model, &BuildParams::default(), &cache).unwrap();
+        (model, cache, e)
+    }
+
+    fn fresh(model: &Path, cache: &Path) -> Cached {
+        let c = cached_scene(model, &BuildParams::default(), cache, &|_, _, _| {}).unwrap();
+        let key = key_bytes(model, &BuildParams::default()).unwrap();
+        check_entry(&c.scene, &key).unwrap();
+        c
+    }
+
+    #[test]
+    fn a_planted_link_is_removed_never_written_through() {
+        let dir = tempfile::tempdir().unwrap();
+        let (model, cache, e) = cached_model(dir.path(), 4);
+        prepare_dir(&cache).unwrap();
+        let victim = dir.path().join("victim.txt");
+        std::fs::write(&victim, b"precious").unwrap();
+        std::os::unix::fs::symlink(&victim, &e).unwrap();
+        let c = fresh(&model, &cache);
+        assert!(!c.hit);
+        assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
+        assert!(std::fs::symlink_metadata(&e).unwrap().is_file());
+        // A link to a valid entry is not used either.
+        let real = dir.path().join("real.hlod");
+        std::fs::rename(&e, &real).unwrap();
+        std::os::unix::fs::symlink(&real, &e).unwrap();
+        let key = key_bytes(&model, &BuildParams::default()).unwrap();
+        assert!(check_entry(&e, &key).unwrap_err().contains("symbolic link"));
+        assert!(!fresh(&model, &cache).hit);
+    }
+
+    #[test]
+    fn a_damaged_entry_or_another_scene_under_the_key_is_rebuilt() {
+        let dir = tempfile::tempdir().unwrap();
+        let (model, cache, e) = cached_model(dir.path(), 5);
+        let key = key_bytes(&model, &BuildParams::default()).unwrap();
+        assert!(!fresh(&model, &cache).hit);
+        assert!(fresh(&model, &cache).hit);
+        // One rep byte flipped: its checksum fails, the entry is rebuilt.
+        let good = std::fs::read(&e).unwrap();
+        let rep = engine::SceneFile::open(&e).unwrap().skeleton().reps[1];
+        let mut bad = good.clone();
+        bad[rep.offset as usize + rep.len as usize / 2] ^= 0x10;
+        std::fs::write(&e, &bad).unwrap();
+        assert!(check_entry(&e, &key).is_err());
+        assert!(!fresh(&model, &cache).hit);
+        assert_eq!(std::fs::read(&e).unwrap(), good, "rebuilt byte for byte");
+        // Another model's valid scene under this model's key.
+        let (other, _, other_entry) = cached_model(dir.path(), 6);
+        fresh(&other, &cache);
+        std::fs::copy(&other_entry, &e).unwrap();
+        let why = check_entry(&e, &key).unwrap_err();
+        assert!(why.contains("another model"), "{why}");
+        assert!(!fresh(&model, &cache).hit);
+        assert_eq!(std::fs::read(&e).unwrap(), good);
+    }
+
+    #[test]
+    fn the_cache_folder_is_the_users_own() {
+        let home = |k: &str| (k == "HOME").then(|| "/home/u".into());
+        assert_eq!(cache_dir_in(None, home), Path::new("/home/u/.cache/hlod"));
+        let xdg = |k: &str| (k == "XDG_CACHE_HOME").then(|| "/x".into());
+        assert_eq!(cache_dir_in(None, xdg), Path::new("/x/hlod"));
+        // Without HOME or XDG_CACHE_HOME: a folder of this user's, never
+        // one shared by all.
+        let none = cache_dir_in(None, |_| None);
+        assert_eq!(
+            none,
+            std::env::temp_dir().join(format!("hlod-cache-{}", user_id()))
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().join("c");
+        prepare_dir(&d).unwrap();
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&d).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o700, "made private");
+        // A folder others may write (as /tmp is) is refused.
+        std::fs::set_permissions(&d, std::fs::Permissions::from_mode(0o1777)).unwrap();
+        let e = prepare_dir(&d).unwrap_err().to_string();
+        assert!(e.contains("can be written by other users"), "{e}");
+    }
+
     #[test]
     fn an_external_buffer_is_part_of_the_key() {
         let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/2CylinderEngine");
@@ -335,7 +421,7 @@ mod tests {
         assert_ne!(k1, key(&model, &p).unwrap());
         // And a GLB's JSON chunk alone names its buffers.
         let glb = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/bunny.glb");
-        let part = json_part(&glb).unwrap();
+        let part = import::json_part(&glb).unwrap();
         assert!(part.len() < 4096, "{} bytes read for the JSON", part.len());
         assert!(import::external_files(&part, Path::new(".")).is_empty());
     }

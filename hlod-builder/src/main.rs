@@ -464,7 +464,9 @@ fn verify_data(scene: &engine::SceneFile<engine::io::FileSource>) -> Result<Data
 /// Writes `bytes` to `out` under the output-file policy (never over `input`).
 fn write_vdt(out: &std::path::Path, input: &std::path::Path, bytes: &[u8]) -> Result<()> {
     use std::io::Write;
-    engine::outfile::write_with(out, &[input], |w| w.write_all(bytes))
+    let inputs = hlod_builder::import::model_files(input);
+    let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+    engine::outfile::write_with(out, &inputs, |w| w.write_all(bytes))
         .with_context(|| format!("cannot write {}", out.display()))
 }
 
@@ -480,7 +482,9 @@ fn vdt_report(
         anyhow::bail!("--block must be in 64..=16777216 bytes");
     }
     if let Some(out) = output {
-        engine::outfile::check_output(out, &[input])?;
+        let inputs = hlod_builder::import::model_files(input);
+        let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
+        engine::outfile::check_output(out, &inputs)?;
     }
     let levels = meta::levels_for_block(block);
     let metric = match metric {

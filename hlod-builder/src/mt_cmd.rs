@@ -1,7 +1,7 @@
 //! `hlod-build mt`: the Multi-Triangulation of a model's largest mesh,
 //! reported and written as an MT file.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
 use hlod_builder::mt::{MtParams, build_mt};
@@ -26,8 +26,10 @@ pub fn mt_report(
     if !(2..=64).contains(&group_clusters) {
         bail!("--group-clusters {group_clusters}: must be in 2..=64");
     }
+    let inputs = hlod_builder::import::model_files(input);
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     if let Some(out) = output {
-        engine::outfile::check_output(out, &[input])?;
+        engine::outfile::check_output(out, &inputs)?;
     }
     let imp = hlod_builder::import::load(input)?;
     let (i, m) = imp
@@ -76,7 +78,7 @@ pub fn mt_report(
     );
     if let Some(out) = output {
         use std::io::Write;
-        engine::outfile::write_with(out, &[input], |w| w.write_all(&bytes))
+        engine::outfile::write_with(out, &inputs, |w| w.write_all(&bytes))
             .with_context(|| format!("cannot write {}", out.display()))?;
         println!("wrote {}", out.display());
     }

@@ -141,7 +141,37 @@ fn the_merge_refuses_what_does_not_add_up() {
         ],
         &params,
     );
-    assert!(e.contains("bad.hlsh") && e.contains("checksum"), "{e}");
+    assert!(e.contains("bad.hlsh") && e.contains("digest"), "{e}");
+    // Altered and resealed (trailer checksum and digest recomputed, as one
+    // who holds the input could): a rep byte changed fails that rep's own
+    // checksum, and nothing is written.
+    let mut bytes = std::fs::read(&files[3]).unwrap();
+    bytes[4096 + 40] ^= 0x55;
+    hlod_builder::build::shard::reseal(&mut bytes).unwrap();
+    std::fs::write(&bad, &bytes).unwrap();
+    let mut with_bad = files[..3].to_vec();
+    with_bad.push(bad.clone());
+    let e = fails(&with_bad, &params);
+    assert!(e.contains("checksum"), "{e}");
+    // A shard of another input (same parameters, index and count).
+    let other_glb = d.join("other.glb");
+    write_plant(&PlantParams { seed: 13, ..p }, &other_glb).unwrap();
+    let foreign = d.join("foreign.hlsh");
+    build_shard_file(
+        &other_glb,
+        &foreign,
+        &params,
+        &opts(),
+        ShardSpec { index: 3, count: 4 },
+    )
+    .unwrap();
+    let mut with_foreign = files[..3].to_vec();
+    with_foreign.push(foreign);
+    let e = fails(&with_foreign, &params);
+    assert!(
+        e.contains("foreign.hlsh") && e.contains("another input"),
+        "{e}"
+    );
     std::fs::write(&bad, b"not a shard at all, just some bytes that are long enough to have a header, really long enough").unwrap();
     let e = fails(&[bad], &params);
     assert!(e.contains("not a shard file"), "{e}");

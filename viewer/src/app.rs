@@ -35,6 +35,7 @@ pub fn run(args: Args) -> Result<()> {
         hlod_builder::import::allow_dir(dir)
             .with_context(|| format!("--allow-dir {}", dir.display()))?;
     }
+    args.check_outputs()?;
     let settings = initial_settings(&args)?;
     let path = match &args.path {
         Some(p) => Some(read_path(p)?),
@@ -251,9 +252,20 @@ impl App {
                     self.controls.set_pose(first);
                 }
                 self.settings = sess.settings;
+                let need = sess.full_detail_need();
                 self.session = Some(sess);
                 self.error = None;
                 self.open_failed = None;
+                if let Some(need) = need.filter(|_| self.args.exit_when_complete) {
+                    // Waiting for a complete view would never end.
+                    let msg = format!(
+                        "--exit-when-complete: the view cannot complete at this budget: \
+                         drawing every rep as itself needs {need} B for the reps (the budget \
+                         less the occluders' share); try --budget auto"
+                    );
+                    self.open_failed = Some(msg.clone());
+                    self.report(msg);
+                }
             }
             Err(e) => {
                 let msg = match model {

@@ -25,6 +25,7 @@ use engine_cli::in_range;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context as _;
 use clap::Parser;
 
 /// Command line.
@@ -110,6 +111,32 @@ pub struct Args {
     /// Overlay refreshes per second (it is cached in between; input refreshes it at once).
     #[arg(long, default_value_t = 2.0, value_parser = in_range(0.1f64, 1000.0))]
     pub overlay_hz: f64,
+}
+
+impl Args {
+    /// The outputs named on the command line, checked before the window opens
+    /// (a refused one is an error now, not after the walk): none may be the
+    /// scene, the model or the path file, a link, or a device. Each is checked
+    /// again when it is written (by then the model's buffers have been read
+    /// and are refused too).
+    pub fn check_outputs(&self) -> anyhow::Result<()> {
+        let inputs: Vec<&std::path::Path> = self
+            .scene
+            .iter()
+            .chain(&self.path)
+            .map(PathBuf::as_path)
+            .collect();
+        for (flag, out) in [
+            ("--csv", &self.csv),
+            ("--screenshot", &self.screenshot),
+            ("--record", &self.record),
+        ] {
+            if let Some(p) = out {
+                engine::outfile::check_output(p, &inputs).with_context(|| flag.to_string())?;
+            }
+        }
+        Ok(())
+    }
 }
 
 fn parse_pixel(s: &str) -> Result<(f32, f32), String> {

@@ -74,7 +74,7 @@ impl Session {
         let scene = SceneFile::from_source(src).with_context(named)?;
         let skeleton = Arc::new(scene.skeleton().clone());
         let origin = scene.meta().origin;
-        let data_bytes: u64 = skeleton.reps.iter().map(|r| r.expanded_extent()).sum();
+        let data_bytes = skeleton.in_core_bytes();
         if let Some(b) = budget {
             let bytes = if b.trim() == "auto" {
                 engine_cli::auto_budget(&skeleton)
@@ -137,6 +137,12 @@ impl Session {
         Ok(walk.frame_split(front_pose, draw_pose, &mut self.renderer)?)
     }
 
+    /// `Some(bytes)` when not every rep can be drawn as itself under the
+    /// footprint in force: the footprint that would take.
+    pub fn full_detail_need(&self) -> Option<u64> {
+        self.walk.as_ref().and_then(Walkthrough::full_detail_need)
+    }
+
     /// The scene's bounds.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let r = &self.skeleton.nodes[0];
@@ -191,6 +197,17 @@ impl Session {
     }
 }
 
+/// The occluders' store: a 16th of the budget, but not room that drawing
+/// every rep as itself needs (`full_detail`), while the budget has it.
+fn occluder_share(budget: u64, full_detail: u64) -> u64 {
+    let share = budget / 16;
+    if budget >= full_detail {
+        share.min(budget - full_detail)
+    } else {
+        share
+    }
+}
+
 fn budget(data: u64, fraction: f64) -> u64 {
     ((data as f64 * fraction) as u64).max(1)
 }
@@ -214,7 +231,11 @@ fn start_walk(t: &Target<'_>, s: &Settings) -> Result<Walkthrough> {
     let params = RuntimeParams {
         mode: s.mode,
         budget_bytes,
-        occlusion_bytes: if s.occlusion { budget_bytes / 16 } else { 0 },
+        occlusion_bytes: if s.occlusion {
+            occluder_share(budget_bytes, t.skel.full_detail_bytes())
+        } else {
+            0
+        },
         ..s.params
     };
     Ok(Walkthrough::start(t.skel.clone(), source, params)?)

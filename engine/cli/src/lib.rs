@@ -8,13 +8,16 @@ use std::process::ExitCode;
 use std::str::FromStr;
 
 /// Sets up logging to stderr (warnings of the builder and the I/O thread),
-/// runs `body`, and turns an error into one message ([`report`]) and exit
+/// remembers every file the program reads as one it may not write
+/// ([`engine::infile::track_inputs`]), runs `body`, and turns an error into one message ([`report`]) and exit
 /// code 2. A run that logged an error (a screenshot that could not be
 /// written, a CSV that failed) but went on to the end exits with 1, never
 /// 0. Output piped into a reader that stops early (`| head`) ends the
 /// program quietly with exit code 141, as SIGPIPE would, instead of a panic
 /// message.
 pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
+    // A command never writes a file it read (engine::infile).
+    engine::infile::track_inputs();
     use tracing_subscriber::layer::SubscriberExt as _;
     use tracing_subscriber::util::SubscriberInitExt as _;
     tracing_subscriber::registry()
@@ -189,28 +192,19 @@ pub fn size_or_off(option: &str, s: &str, data_bytes: u64) -> anyhow::Result<u64
 /// the machine's memory).
 pub const AUTO_BUDGET_CAP: u64 = 1 << 30;
 
-/// `--budget auto` for a scene: all its rep data up to [`AUTO_BUDGET_CAP`]
-/// and a quarter of this machine's memory, and never less than its minimal
-/// front plus room to load its largest rep (the root's coarsest rep, which
-/// stays resident, plus the largest rep, each with the compressed copy it
-/// needs while it loads), so that it can always be shown and refined.
+/// `--budget auto` for a scene: all of it in core
+/// ([`engine::Skeleton::in_core_bytes`]) up to [`AUTO_BUDGET_CAP`] and a
+/// quarter of this machine's memory, and never less than what drawing every
+/// rep as itself needs ([`engine::Skeleton::full_detail_bytes`]: the root's
+/// coarsest rep, which stays resident, beside the largest rep while it
+/// loads), so that it can always be shown and refined.
 pub fn auto_budget(skeleton: &engine::Skeleton) -> u64 {
-    let loading = |r: &engine::RepRecord| r.expanded_extent() + r.load_scratch();
-    let data: u64 = skeleton
-        .reps
-        .iter()
-        .map(engine::RepRecord::expanded_extent)
-        .sum();
-    let root = skeleton
-        .nodes
-        .first()
-        .and_then(|n| skeleton.reps.get(n.first_rep as usize));
-    let root_resident = root.map_or(0, engine::RepRecord::expanded_extent);
-    let root_loading = root.map_or(0, loading);
-    let largest = skeleton.reps.iter().map(loading).max().unwrap_or(0);
     let cap = AUTO_BUDGET_CAP.min(engine::limits::memory_total() / 4);
-    let floor = root_loading.max(root_resident.saturating_add(largest));
-    data.min(cap).max(floor).max(1)
+    skeleton
+        .in_core_bytes()
+        .min(cap)
+        .max(skeleton.full_detail_bytes())
+        .max(1)
 }
 
 #[cfg(test)]

@@ -32,3 +32,38 @@ fn a_one_node_scene_completes_in_every_mode() {
         }
     }
 }
+
+#[test]
+fn the_full_detail_footprint_is_enough_and_one_byte_less_is_said() {
+    use crate::SceneFile;
+    use crate::io::MemSource;
+    let built = [
+        crate::testutil::build(&[3], &[0]),
+        crate::testutil::build_compressed(&[3], &[0]),
+        crate::testutil::build_compressed(&[2, 3, 3], &[2, 0, 0]),
+    ];
+    for (k, (bytes, _)) in built.into_iter().enumerate() {
+        let file = SceneFile::from_source(MemSource::new(bytes.clone())).unwrap();
+        let skel = Arc::new(file.skeleton().clone());
+        let src: Arc<dyn ByteSource> = Arc::new(MemSource::new(bytes));
+        let need = skel.full_detail_bytes();
+        assert!(need <= skel.in_core_bytes(), "scene {k}: 100% is enough");
+        for mode in [Mode::NoPre, Mode::Pre] {
+            let mut walk =
+                Walkthrough::start(skel.clone(), src.clone(), params(mode, need)).unwrap();
+            assert_eq!(walk.full_detail_need(), None);
+            assert!(
+                frames_to_complete(&mut walk, need, 500).is_some(),
+                "scene {k}, {mode:?}: completes at {need} B"
+            );
+            // One byte less: said, before any frame (the walk still runs
+            // when the root fits).
+            let root = &skel.reps[0];
+            if need > root.expanded_extent() + root.load_scratch() {
+                let walk =
+                    Walkthrough::start(skel.clone(), src.clone(), params(mode, need - 1)).unwrap();
+                assert_eq!(walk.full_detail_need(), Some(need), "scene {k}");
+            }
+        }
+    }
+}

@@ -198,6 +198,17 @@ impl Walkthrough {
             Err(_) => return Err(RuntimeError::LoaderGone),
         }
         let skeleton_reps = skeleton.reps.len();
+        if let Some(need) = unfit(&skeleton, &params) {
+            tracing::warn!(
+                "the footprint for reps ({} B: the budget of {} B less {} B for occluders) is \
+                 below the {need} B that drawing every rep as itself needs (the largest rep \
+                 while it loads, beside the root's coarsest): the reps that do not fit are \
+                 drawn as coarser ancestors, and the view never completes",
+                loader_params.budget_bytes,
+                params.budget_bytes,
+                params.occlusion_bytes.min(params.budget_bytes)
+            );
+        }
         Ok(Self {
             drawn_stamp: vec![0; skeleton.reps.len()],
             skeleton,
@@ -226,6 +237,12 @@ impl Walkthrough {
             origin: clock.now(),
             clock,
         })
+    }
+
+    /// `None` when every rep can be drawn as itself under this footprint;
+    /// else the footprint that would take (see [`Skeleton::full_detail_bytes`]).
+    pub fn full_detail_need(&self) -> Option<u64> {
+        unfit(&self.skeleton, &self.params)
     }
 
     /// The parameters in force.
@@ -533,4 +550,12 @@ pub fn run_path_each<E: std::error::Error + 'static>(
         next = start + period;
     }
     Ok(())
+}
+
+/// The footprint P_I's reps would need for every rep to be drawn as itself,
+/// when the walk's is smaller (never in core, which loads everything).
+fn unfit(skeleton: &Skeleton, params: &RuntimeParams) -> Option<u64> {
+    let reps = params.budget_bytes - params.occlusion_bytes.min(params.budget_bytes);
+    let need = skeleton.full_detail_bytes();
+    (params.mode != Mode::Incore && reps < need).then_some(need)
 }

@@ -217,7 +217,9 @@ pub fn build_shard_file(
     spec: ShardSpec,
 ) -> Result<BuildStats, BuildError> {
     params.check()?;
-    let out = engine::outfile::OutputFile::create(output, &[input])?;
+    let inputs = crate::import::model_files(input);
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    let out = engine::outfile::OutputFile::create(output, &inputs)?;
     let key = crate::cache::key(input, params)?;
     let opened = crate::import::open(input)?;
     let write_err = |source| BuildError::Write {
@@ -337,7 +339,15 @@ fn read_header(path: &Path, key: &str) -> Result<ShardHeader, String> {
     let mut b = [0u8; std::mem::size_of::<ShardHeader>()];
     f.read_exact(&mut b)
         .map_err(|_| "not a shard file (too short)".to_string())?;
-    let h: ShardHeader = bytemuck::pod_read_unaligned(&b);
+    parse_header(&b, key)
+}
+
+/// [`read_header`] on the header's bytes.
+fn parse_header(
+    b: &[u8; std::mem::size_of::<ShardHeader>()],
+    key: &str,
+) -> Result<ShardHeader, String> {
+    let h: ShardHeader = bytemuck::pod_read_unaligned(b);
     if h.magic != MAGIC {
         return Err("not a shard file (written by `hlod-build build --shard I/N`)".into());
     }
@@ -347,7 +357,7 @@ fn read_header(path: &Path, key: &str) -> Result<ShardHeader, String> {
             h.version
         ));
     }
-    if h.key != key.as_bytes()[..32] {
+    if key.as_bytes().get(..32) != Some(&h.key[..]) {
         return Err(
             "was built from another input or with other parameters than this merge's".into(),
         );
@@ -362,7 +372,7 @@ fn read_header(path: &Path, key: &str) -> Result<ShardHeader, String> {
 }
 
 /// What the shard file holds, its digest checked first.
-fn read_data(src: &FileSource, h: &ShardHeader, tree_len: usize) -> Result<ShardData, String> {
+fn read_data(src: &dyn ByteSource, h: &ShardHeader, tree_len: usize) -> Result<ShardData, String> {
     let end = h.trailer_offset.checked_add(h.trailer_len);
     if end.is_none_or(|e| e > src.len()) || h.trailer_len > usize::MAX as u64 {
         return Err("truncated: the trailer runs past the file's end".into());
@@ -449,7 +459,8 @@ pub fn merge_files(
         ));
     }
     let t0 = std::time::Instant::now();
-    let mut inputs: Vec<&Path> = vec![input];
+    let model = crate::import::model_files(input);
+    let mut inputs: Vec<&Path> = model.iter().map(PathBuf::as_path).collect();
     inputs.extend(shard_files.iter().map(PathBuf::as_path));
     let out = engine::outfile::OutputFile::create(output, &inputs)?;
     let key = crate::cache::key(input, params)?;
@@ -603,6 +614,42 @@ pub fn merge_files(
     stats.file_bytes = file_len(output)?;
     stats.seconds = t0.elapsed().as_secs_f64();
     Ok(stats)
+}
+
+/// Reads a whole shard file as `merge` does — header against `key`,
+/// digest, trailer checksum, every record against a graph of `tree_len`
+/// nodes — and returns how many nodes it holds (the fuzz target's entry:
+/// `tests/fuzz/fuzz_targets/shard_reader.rs`).
+pub fn check_shard(bytes: &[u8], key: &str, tree_len: usize) -> Result<usize, String> {
+    let head = bytes
+        .first_chunk::<{ std::mem::size_of::<ShardHeader>() }>()
+        .ok_or("not a shard file (too short)")?;
+    let h = parse_header(head, key)?;
+    let src = engine::MemSource::new(bytes.to_vec());
+    read_data(&src, &h, tree_len).map(|d| d.nodes.len())
+}
+
+/// For the fuzz target: the key a shard file's header records (32 bytes,
+/// as text where they are UTF-8), and the file with its trailer checksum
+/// and digest made to match its bytes, so that mutations reach the checks
+/// behind them. `None` for a file shorter than a header.
+pub fn reseal(bytes: &mut [u8]) -> Option<String> {
+    const H: usize = std::mem::size_of::<ShardHeader>();
+    let mut h: ShardHeader = bytemuck::pod_read_unaligned(bytes.get(..H)?);
+    let trailer = h
+        .trailer_offset
+        .checked_add(h.trailer_len)
+        .filter(|&e| e <= bytes.len() as u64)
+        .map(|e| &bytes[h.trailer_offset as usize..e as usize]);
+    if let Some(t) = trailer {
+        h.trailer_crc = crc32fast::hash(t);
+    }
+    let src = engine::MemSource::new(bytes.to_vec());
+    if let Ok(d) = digest_of(&src, &h) {
+        h.digest = d;
+    }
+    bytes[..H].copy_from_slice(bytemuck::bytes_of(&h));
+    Some(String::from_utf8_lossy(&h.key).into_owned())
 }
 
 /// The size of a file just written.

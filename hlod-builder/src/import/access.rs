@@ -25,7 +25,7 @@ pub fn component_size(t: u32) -> Option<u64> {
     }
 }
 
-fn component_name(t: u32) -> String {
+pub fn component_name(t: u32) -> String {
     match t {
         I8 => "BYTE".into(),
         U8 => "UNSIGNED_BYTE".into(),

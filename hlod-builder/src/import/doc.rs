@@ -380,3 +380,24 @@ pub fn parse(json: &[u8]) -> Result<Doc, String> {
     }
     Ok(doc)
 }
+
+/// Only the images' `uri`s (what a model names besides its buffers; the
+/// importer does not read images, but no output may replace one).
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+struct Images {
+    images: Vec<ImageUri>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(default)]
+struct ImageUri {
+    uri: Option<String>,
+}
+
+/// The `uri`s of a document's images (none where it does not parse).
+pub fn parse_images(json: &[u8]) -> Result<Vec<String>, String> {
+    let json = json.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(json);
+    let i: Images = serde_json::from_slice(json).map_err(|e| format!("JSON: {e}"))?;
+    Ok(i.images.into_iter().filter_map(|i| i.uri).collect())
+}

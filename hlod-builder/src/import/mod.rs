@@ -18,6 +18,7 @@
 
 mod access;
 mod doc;
+mod files;
 mod lazy;
 mod meshopt_view;
 mod nodes;
@@ -31,6 +32,8 @@ use serde_json::Value;
 
 use crate::mesh::{Aabb, Mesh};
 
+use files::resolve_uri;
+pub use files::{allow_dir, external_files, json_part, model_files};
 pub use lazy::{Opened, open};
 
 /// Why a glTF file could not be imported.
@@ -183,73 +186,6 @@ pub fn load(path: &Path) -> Result<Imported, ImportError> {
     let mut scene = opened.into_scene();
     scene.meshes = meshes;
     Ok(scene)
-}
-
-/// Folders besides a model's own from which its buffers may be read
-/// ([`allow_dir`]), canonical.
-static ALLOWED_DIRS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
-
-/// Lets glTF buffer `uri`s name files under `dir` too (the binaries'
-/// `--allow-dir`); by default a model reads only files inside its own
-/// folder.
-pub fn allow_dir(dir: &Path) -> std::io::Result<()> {
-    let canon = std::fs::canonicalize(dir)?;
-    if !canon.is_dir() {
-        return Err(std::io::ErrorKind::NotADirectory.into());
-    }
-    ALLOWED_DIRS
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .push(canon);
-    Ok(())
-}
-
-/// The file a buffer's relative `uri` names, resolved against `base_dir`:
-/// refused when it leaves that folder (`..`, an absolute path, a link out
-/// of it) and no [`allow_dir`] folder holds it, so that a model cannot
-/// build any local file into a scene a user may publish.
-pub(super) fn resolve_uri(i: usize, uri: &str, base_dir: &Path) -> Result<PathBuf, String> {
-    let decoded = percent_decode(uri);
-    let base_dir = if base_dir.as_os_str().is_empty() {
-        Path::new(".")
-    } else {
-        base_dir
-    };
-    let joined = base_dir.join(&decoded);
-    let base = std::fs::canonicalize(base_dir)
-        .map_err(|e| format!("buffers[{i}]: the model's folder: {e}"))?;
-    // A file that does not exist is its reader's error to report, but only
-    // once it is known not to leave the folder by its name alone.
-    let target = match std::fs::canonicalize(&joined) {
-        Ok(t) => t,
-        Err(_) => lexical(&base.join(&decoded)),
-    };
-    let allowed = ALLOWED_DIRS.lock().unwrap_or_else(|e| e.into_inner());
-    if target.starts_with(&base) || allowed.iter().any(|d| target.starts_with(d)) {
-        return Ok(target);
-    }
-    Err(format!(
-        "buffers[{i}]: uri {uri:?} names {}, outside the model's folder {}: a model may only \
-         read files beside it (--allow-dir DIR allows another folder)",
-        target.display(),
-        base.display()
-    ))
-}
-
-/// `p` with `.` and `..` components folded (no file system access).
-fn lexical(p: &Path) -> PathBuf {
-    use std::path::Component;
-    let mut out = PathBuf::new();
-    for c in p.components() {
-        match c {
-            Component::CurDir => {}
-            Component::ParentDir => {
-                out.pop();
-            }
-            c => out.push(c),
-        }
-    }
-    out
 }
 
 /// Loads glTF or GLB bytes; external buffers are resolved against `base_dir`,
@@ -466,43 +402,4 @@ pub(super) fn read_buffer_file(file: &Path, len: u64) -> std::io::Result<Vec<u8>
         .map_err(|_| std::io::Error::from(std::io::ErrorKind::OutOfMemory))?;
     f.take(len).read_to_end(&mut out)?;
     Ok(out)
-}
-
-pub(super) fn percent_decode(s: &str) -> String {
-    let b = s.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        if b[i] == b'%' && i + 2 < b.len() {
-            let hex = std::str::from_utf8(&b[i + 1..i + 3]).ok();
-            if let Some(v) = hex.and_then(|h| u8::from_str_radix(h, 16).ok()) {
-                out.push(v);
-                i += 3;
-                continue;
-            }
-        }
-        out.push(b[i]);
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
-}
-
-/// The external files a glTF's buffers name (resolved against `base_dir`;
-/// one that leaves it is left out, its build refuses it), for keying a
-/// build cache by everything the model is made of; none for a file that
-/// does not parse (its build reports why).
-pub fn external_files(bytes: &[u8], base_dir: &Path) -> Vec<PathBuf> {
-    let Ok((json, _)) = doc::split(bytes) else {
-        return Vec::new();
-    };
-    let Ok(d) = doc::parse(json) else {
-        return Vec::new();
-    };
-    d.buffers
-        .iter()
-        .filter_map(|b| b.uri.as_deref())
-        .filter(|u| !u.starts_with("data:"))
-        .enumerate()
-        .filter_map(|(i, u)| resolve_uri(i, u, base_dir).ok())
-        .collect()
 }

@@ -252,14 +252,15 @@ fn degenerate(i: usize, world: &DMat4, warnings: &mut Vec<String>) -> bool {
         .into_iter()
         .fold(0.0f64, f64::max);
     // Relative to the largest axis: a tiny but uniform scale is fine.
-    let flat = !(det.abs() > 1e-12 * scale.powi(3)) || scale == 0.0;
-    if flat && world.is_finite() {
+    // A non-finite transform is refused elsewhere; only a finite one is judged here.
+    let flat = world.is_finite() && (scale == 0.0 || det.abs() <= 1e-12 * scale.powi(3));
+    if flat {
         warnings.push(format!(
             "nodes[{i}]: its transform is degenerate (determinant {det:.3e}: a zero scale or a \
              singular matrix collapses the mesh), skipped"
         ));
     }
-    flat && world.is_finite()
+    flat
 }
 
 /// How many node visits the walk from `roots` makes (a node shared by

@@ -1,7 +1,7 @@
 //! A glTF mesh's primitives read and merged into one [`Mesh`], each vertex
 //! coloured by its material's base colour (times `COLOR_0`).
 
-use super::access::{self, Buffers, F32, I8, I16, U8, U16};
+use super::access::{self, Buffers, F32, I8, I16, U8, U16, U32};
 use crate::mesh::Mesh;
 
 /// Triangle topologies (points and lines are skipped).
@@ -40,6 +40,7 @@ pub fn read_mesh(
             ));
             continue;
         }
+        check_position_type(bufs, pos, &what, warnings);
         let positions = access::read_f32::<3>(bufs, pos)
             .map_err(|e| format!("{what}.attributes.POSITION: {e}"))?;
         if positions.iter().flatten().any(|c| !c.is_finite()) {
@@ -103,6 +104,59 @@ pub fn read_mesh(
         return Ok((None, source));
     }
     Ok((Some(out), source))
+}
+
+/// POSITION's component type against glTF 2.0 and `KHR_mesh_quantization`:
+/// FLOAT, or (with the extension in `extensionsUsed`) BYTE, UNSIGNED_BYTE,
+/// SHORT or UNSIGNED_SHORT, normalized or not; `normalized` is never valid
+/// on FLOAT or UNSIGNED_INT. A file that breaks this is warned about,
+/// naming the primitive and the accessor, and read as its type says (the
+/// geometry is kept: these files come from exporters that mean them).
+fn check_position_type(bufs: &Buffers, a: usize, what: &str, warnings: &mut Vec<String>) {
+    let Some(acc) = bufs.doc.accessors.get(a) else {
+        return; // the read reports it
+    };
+    let t = acc.component_type;
+    let name = access::component_name(t);
+    let problem = match t {
+        F32 if acc.normalized => Some(format!(
+            "is a normalized {name}, which glTF 2.0 does not allow (normalized is for 8- and \
+             16-bit integers); read as plain floats"
+        )),
+        U32 => Some(format!(
+            "has {name} components, which no glTF 2.0 POSITION may have{}; read as {}",
+            if acc.normalized {
+                " (nor normalized)"
+            } else {
+                ""
+            },
+            if acc.normalized {
+                "integers scaled to [0, 1]"
+            } else {
+                "integers"
+            }
+        )),
+        I8 | U8 | I16 | U16
+            if !bufs
+                .doc
+                .extensions_used
+                .iter()
+                .any(|e| e == "KHR_mesh_quantization") =>
+        {
+            Some(format!(
+                "has {name} components without KHR_mesh_quantization in extensionsUsed; read as \
+                 that extension says"
+            ))
+        }
+        _ => None,
+    };
+    // Said once a file for each kind of problem (an exporter repeats it in
+    // every primitive), naming the first part that has it.
+    if let Some(p) = problem
+        && !warnings.iter().any(|w| w.ends_with(&p))
+    {
+        warnings.push(format!("{what}.attributes.POSITION: accessors[{a}] {p}"));
+    }
 }
 
 /// NORMAL as float or normalized signed integers (`KHR_mesh_quantization`);

@@ -1,6 +1,6 @@
 //! Tiling a real model on a grid: shipped models become 10M+ triangle scenes.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use glam::{Mat4, Vec3};
@@ -90,10 +90,12 @@ pub fn write_tiled(
     if !(gap.is_finite() && gap >= 0.0) {
         anyhow::bail!("--gap must be a finite number >= 0");
     }
-    engine::outfile::check_output(out, &[input])?;
+    let inputs = import::model_files(input);
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    engine::outfile::check_output(out, &inputs)?;
     let imported = import::load(input)?;
     let named = |e: std::io::Error| anyhow::anyhow!("{}: {e}", out.display());
-    let mut stream = SceneStream::create(out, &[input]).map_err(named)?;
+    let mut stream = SceneStream::create(out, &inputs).map_err(named)?;
     let mut stats = tile_into(&imported, (n, m), baked, gap, &mut stream).map_err(named)?;
     stats.bytes = stream.finish().map_err(named)?;
     Ok(stats)

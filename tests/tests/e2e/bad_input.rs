@@ -225,7 +225,28 @@ fn fuzz_seeds_and_regressions_run_clean() {
         }
         ran += 1;
     }
-    assert!(ran >= 5, "the seeds are there ({ran})");
+    for (name, mut bytes) in inputs("shard_reader") {
+        let key = hlod_builder::build::shard::reseal(&mut bytes).unwrap_or_default();
+        let r = hlod_builder::build::shard::check_shard(&bytes, &key, 4096);
+        if name.contains("/seeds/") {
+            assert!(r.is_ok(), "{name}: a seed reads whole: {r:?}");
+        }
+        ran += 1;
+    }
+    for (name, bytes) in inputs("cache_entry") {
+        let head = &bytes[..std::mem::size_of::<engine::FileHeader>().min(bytes.len())];
+        let key = bytemuck::try_pod_read_unaligned::<engine::FileHeader>(head)
+            .map_or([0; 16], |h| h.source_key);
+        let r = hlod_builder::cache::check_entry_source(engine::MemSource::new(bytes), &key);
+        if name.contains("/seeds/") {
+            assert!(
+                r.is_ok() && key != [0; 16],
+                "{name}: a seed is a valid entry: {r:?}"
+            );
+        }
+        ran += 1;
+    }
+    assert!(ran >= 7, "the seeds are there ({ran})");
 }
 
 #[test]
@@ -343,5 +364,122 @@ fn valid_files_the_old_importer_refused_now_build() {
                 stats.warnings
             );
         }
+    }
+}
+
+/// A GLB of one triangle whose POSITION has component type `ct`
+/// (`normalized` as given) and `stride`-byte elements from `bin`, placed by
+/// `nodes`; with `KHR_mesh_quantization` declared or not.
+fn one_triangle(
+    ct: u32,
+    normalized: bool,
+    bin: &[u8],
+    stride: usize,
+    ext: bool,
+    nodes: serde_json::Value,
+) -> Vec<u8> {
+    let mut doc = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": (0..nodes.as_array().unwrap().len()).collect::<Vec<_>>()}],
+        "nodes": nodes,
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "mode": 4}]}],
+        "accessors": [{"bufferView": 0, "componentType": ct, "normalized": normalized, "count": 3, "type": "VEC3"}],
+        "bufferViews": [{"buffer": 0, "byteLength": bin.len(), "byteStride": stride}],
+        "buffers": [{"byteLength": bin.len()}],
+    });
+    if ext {
+        doc["extensionsUsed"] = serde_json::json!(["KHR_mesh_quantization"]);
+    }
+    e2e_tests::conformance::glb(&doc, bin)
+}
+
+/// Import warnings of a GLB, with the triangles kept.
+fn import_warnings(bytes: &[u8]) -> (Vec<String>, u64) {
+    let imp = hlod_builder::import::load_slice(bytes, Path::new("."), Path::new("q.glb")).unwrap();
+    let tris = imp
+        .meshes
+        .iter()
+        .flatten()
+        .map(|m| m.tri_count() as u64)
+        .sum();
+    (imp.warnings, tris)
+}
+
+#[test]
+fn spec_invalid_quantization_and_degenerate_transforms_are_said() {
+    let one = serde_json::json!([{"mesh": 0}]);
+    let u16s: Vec<u8> = [[0u16, 0, 0, 0], [100, 0, 0, 0], [0, 100, 0, 0]]
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let u32s: Vec<u8> = [[0u32, 0, 0], [100, 0, 0], [0, 100, 0]]
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let f32s: Vec<u8> = [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    // Valid: quantized with the extension declared; plain floats.
+    for (ct, bin, stride) in [(5123, &u16s, 8), (5126, &f32s, 12)] {
+        let (w, tris) = import_warnings(&one_triangle(
+            ct,
+            false,
+            bin,
+            stride,
+            ct != 5126,
+            one.clone(),
+        ));
+        assert!(w.is_empty(), "{w:?}");
+        assert_eq!(tris, 1);
+    }
+    // Invalid: each said once, naming the primitive and the accessor; the
+    // triangle is kept as its type reads.
+    for (ct, norm, bin, stride, ext, needle) in [
+        (
+            5123,
+            false,
+            &u16s,
+            8,
+            false,
+            "without KHR_mesh_quantization in extensionsUsed",
+        ),
+        (5126, true, &f32s, 12, false, "normalized FLOAT"),
+        (5125, false, &u32s, 12, true, "UNSIGNED_INT components"),
+    ] {
+        let (w, tris) = import_warnings(&one_triangle(ct, norm, bin, stride, ext, one.clone()));
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].contains(needle)
+                && w[0].contains("meshes[0].primitives[0].attributes.POSITION: accessors[0]"),
+            "{w:?}"
+        );
+        assert_eq!(tris, 1, "{needle}");
+    }
+    // A zero scale and a zero matrix collapse the mesh: said, and skipped.
+    let nodes = serde_json::json!([
+        {"mesh": 0},
+        {"mesh": 0, "scale": [0.0, 0.0, 0.0]},
+        {"mesh": 0, "matrix": vec![0.0; 16]},
+    ]);
+    let imp = hlod_builder::import::load_slice(
+        &one_triangle(5126, false, &f32s, 12, false, nodes),
+        Path::new("."),
+        Path::new("q.glb"),
+    )
+    .unwrap();
+    assert_eq!(imp.instances.len(), 1, "{:?}", imp.warnings);
+    for n in ["nodes[1]", "nodes[2]"] {
+        assert!(
+            imp.warnings
+                .iter()
+                .any(|w| w.starts_with(n) && w.contains("degenerate")),
+            "{n}: {:?}",
+            imp.warnings
+        );
     }
 }

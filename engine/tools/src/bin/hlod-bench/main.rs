@@ -245,9 +245,9 @@ fn run(a: Args) -> Result<()> {
         None
     };
     drop(scene);
-    // Percentages are of the rep data as it is in core (compressed reps
-    // expanded): what in-core mode holds.
-    let data_bytes: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
+    // Percentages are of the scene in core (compressed reps expanded, and
+    // room to load the largest): at 100% every rep can be resident.
+    let data_bytes = skel.in_core_bytes();
     let vdt_pool = parse_size("--vdt-pool", &a.vdt_pool, data_bytes, 100.0)?;
     let coalesce_gap = size_or_off("--coalesce-gap", &a.coalesce_gap, data_bytes)?;
     let page_bytes = size_or_off("--page", &a.page, data_bytes)?;

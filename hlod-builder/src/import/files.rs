@@ -1,0 +1,159 @@
+//! The files a model names (external buffers and images): where a `uri`
+//! may point, and which files a command reading a model may never write.
+
+use std::path::{Path, PathBuf};
+
+use super::doc;
+
+/// Folders besides a model's own from which its buffers may be read
+/// ([`allow_dir`]), canonical.
+static ALLOWED_DIRS: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Lets glTF buffer `uri`s name files under `dir` too (the binaries'
+/// `--allow-dir`); by default a model reads only files inside its own
+/// folder.
+pub fn allow_dir(dir: &Path) -> std::io::Result<()> {
+    let canon = std::fs::canonicalize(dir)?;
+    if !canon.is_dir() {
+        return Err(std::io::ErrorKind::NotADirectory.into());
+    }
+    ALLOWED_DIRS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(canon);
+    Ok(())
+}
+
+/// The file a buffer's relative `uri` names, resolved against `base_dir`:
+/// refused when it leaves that folder (`..`, an absolute path, a link out
+/// of it) and no [`allow_dir`] folder holds it, so that a model cannot
+/// build any local file into a scene a user may publish.
+pub(super) fn resolve_uri(i: usize, uri: &str, base_dir: &Path) -> Result<PathBuf, String> {
+    let decoded = percent_decode(uri);
+    let base_dir = if base_dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        base_dir
+    };
+    let joined = base_dir.join(&decoded);
+    let base = std::fs::canonicalize(base_dir)
+        .map_err(|e| format!("buffers[{i}]: the model's folder: {e}"))?;
+    // A file that does not exist is its reader's error to report, but only
+    // once it is known not to leave the folder by its name alone.
+    let target = match std::fs::canonicalize(&joined) {
+        Ok(t) => t,
+        Err(_) => lexical(&base.join(&decoded)),
+    };
+    let allowed = ALLOWED_DIRS.lock().unwrap_or_else(|e| e.into_inner());
+    if target.starts_with(&base) || allowed.iter().any(|d| target.starts_with(d)) {
+        return Ok(target);
+    }
+    Err(format!(
+        "buffers[{i}]: uri {uri:?} names {}, outside the model's folder {}: a model may only \
+         read files beside it (--allow-dir DIR allows another folder)",
+        target.display(),
+        base.display()
+    ))
+}
+
+/// `p` with `.` and `..` components folded (no file system access).
+fn lexical(p: &Path) -> PathBuf {
+    use std::path::Component;
+    let mut out = PathBuf::new();
+    for c in p.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                out.pop();
+            }
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' && i + 2 < b.len() {
+            let hex = std::str::from_utf8(&b[i + 1..i + 3]).ok();
+            if let Some(v) = hex.and_then(|h| u8::from_str_radix(h, 16).ok()) {
+                out.push(v);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+/// The external files a glTF's buffers name (resolved against `base_dir`;
+/// one that leaves it is left out, its build refuses it), for keying a
+/// build cache by everything the model is made of; none for a file that
+/// does not parse (its build reports why).
+pub fn external_files(bytes: &[u8], base_dir: &Path) -> Vec<PathBuf> {
+    let Ok((json, _)) = doc::split(bytes) else {
+        return Vec::new();
+    };
+    let Ok(d) = doc::parse(json) else {
+        return Vec::new();
+    };
+    d.buffers
+        .iter()
+        .filter_map(|b| b.uri.as_deref())
+        .filter(|u| !u.starts_with("data:"))
+        .enumerate()
+        .filter_map(|(i, u)| resolve_uri(i, u, base_dir).ok())
+        .collect()
+}
+
+/// Every file a model is made of or names: the model, its external
+/// buffers and its images (resolved and confined as [`resolve_uri`]
+/// does). No output of a command that reads the model may be one of them.
+/// Only the model's JSON part is read; a model that does not parse names
+/// only itself (its reader says why).
+pub fn model_files(model: &Path) -> Vec<PathBuf> {
+    let mut out = vec![model.to_path_buf()];
+    let Ok(head) = json_part(model) else {
+        return out;
+    };
+    let base = model.parent().unwrap_or(Path::new("."));
+    out.extend(external_files(&head, base));
+    let images = doc::split(&head)
+        .ok()
+        .and_then(|(json, _)| doc::parse_images(json).ok())
+        .unwrap_or_default();
+    out.extend(
+        images
+            .iter()
+            .filter(|u| !u.starts_with("data:"))
+            .enumerate()
+            .filter_map(|(i, u)| resolve_uri(i, u, base).ok()),
+    );
+    out
+}
+
+/// The part of a model that names its buffers: a `.glb`'s header and JSON
+/// chunk, or a whole `.gltf` (bounded reads).
+pub fn json_part(path: &Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let mut f = engine::infile::open(path)?;
+    let mut head = [0u8; 20];
+    let n = f.read(&mut head)?;
+    if n == 20 && &head[..4] == b"glTF" {
+        let json_len = u64::from(u32::from_le_bytes([head[12], head[13], head[14], head[15]]));
+        let mut out = head.to_vec();
+        f.take(json_len.min(super::max_input_bytes()))
+            .read_to_end(&mut out)?;
+        // A container cut after its JSON chunk: the length field is patched
+        // so that the JSON parses alone.
+        let total = out.len() as u32;
+        out[8..12].copy_from_slice(&total.to_le_bytes());
+        return Ok(out);
+    }
+    engine::limits::read_bounded(path, super::max_input_bytes())
+}
