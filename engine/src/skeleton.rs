@@ -68,18 +68,22 @@ impl Skeleton {
     }
 
     /// The smallest footprint under which every rep can be drawn as itself:
-    /// the root's coarsest rep (always resident) beside the largest rep
-    /// while it loads (or the root's own load, if larger). Below it, the
-    /// reps that do not fit are drawn as coarser ancestors on every frame.
+    /// the root's coarsest rep (always resident) beside the largest other
+    /// rep while it loads (or the root's own load, if larger). Below it,
+    /// the reps that do not fit are drawn as coarser ancestors on every
+    /// frame. Never more than [`Self::in_core_bytes`].
     pub fn full_detail_bytes(&self) -> u64 {
         let loading = |r: &RepRecord| r.expanded_extent() + r.load_scratch();
-        let root = self
-            .root()
-            .and_then(|n| self.reps.get(n.first_rep as usize));
+        let root_id = self.root().map(|n| n.first_rep as usize);
+        let root = root_id.and_then(|i| self.reps.get(i));
         let root_resident = root.map_or(0, RepRecord::expanded_extent);
         let root_loading = root.map_or(0, loading);
-        let largest = self.reps.iter().map(loading).max().unwrap_or(0);
-        root_loading.max(root_resident.saturating_add(largest))
+        let largest_other = (self.reps.iter().enumerate())
+            .filter(|&(i, _)| Some(i) != root_id)
+            .map(|(_, r)| loading(r))
+            .max()
+            .unwrap_or(0);
+        root_loading.max(root_resident.saturating_add(largest_other))
     }
 
     /// Children node ids of `node`.

@@ -167,12 +167,12 @@ pub fn key_bytes(input: &Path, params: &BuildParams) -> Result<[u8; 16], ImportE
     h.update(&engine::format::VERSION.to_le_bytes());
     h.update(&crate::lod::SIMPLIFICATION_REVISION.to_le_bytes());
     h.update(format!("{params:?}").as_bytes());
-    hash_file(&mut h, input).map_err(|e| read_err(input, e))?;
+    hash_file(&mut h, input, u64::MAX).map_err(|e| read_err(input, e))?;
     let head = import::json_part(input).map_err(|e| read_err(input, e))?;
     let base = input.parent().unwrap_or(Path::new("."));
-    for f in import::external_files(&head, base) {
+    for (f, len) in import::external_buffers(&head, base) {
         // A missing buffer is the build's error to report; it keys as absent.
-        if hash_file(&mut h, &f).is_err() {
+        if hash_file(&mut h, &f, len).is_err() {
             h.update(b"missing");
         }
     }
@@ -181,11 +181,14 @@ pub fn key_bytes(input: &Path, params: &BuildParams) -> Result<[u8; 16], ImportE
     Ok(k)
 }
 
-/// Adds a regular file's length and bytes to `h`, read in chunks.
-fn hash_file(h: &mut blake3::Hasher, path: &Path) -> std::io::Result<()> {
+/// Adds the first `limit` bytes of a regular file (what the importer reads
+/// of it: a buffer's declared length) and their count to `h`, read in
+/// chunks.
+fn hash_file(h: &mut blake3::Hasher, path: &Path, limit: u64) -> std::io::Result<()> {
     use std::io::Read;
-    let (mut f, meta) = engine::infile::open_with_meta(path)?;
-    h.update(&meta.len().to_le_bytes());
+    let (f, meta) = engine::infile::open_with_meta(path)?;
+    h.update(&meta.len().min(limit).to_le_bytes());
+    let mut f = f.take(limit);
     let mut buf = vec![0u8; 1 << 20];
     loop {
         let n = f.read(&mut buf)?;

@@ -4,31 +4,17 @@
 //! a FIFO as the path file is refused at once.
 
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Output};
+use std::time::Duration;
 
 /// Runs the viewer without a display, killed after 60 s.
 fn view(dir: &Path, args: &[&str]) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_hlod-view"))
-        .args(args)
-        .current_dir(dir)
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_hlod-view"));
+    cmd.args(args)
         .env_remove("DISPLAY")
         .env_remove("WAYLAND_DISPLAY")
-        .env("HLOD_CACHE_DIR", dir.join("cache"))
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > Duration::from_secs(60) {
-            let _ = child.kill();
-            panic!("hlod-view {args:?} did not exit (blocked?)");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
+        .env("HLOD_CACHE_DIR", dir.join("cache"));
+    e2e_tests::run_limited(&mut cmd, dir, Duration::from_secs(60))
 }
 
 fn refused(out: &Output, needle: &str, what: &str) {
@@ -84,13 +70,7 @@ fn no_output_is_an_input_a_link_or_a_device() {
         assert_eq!(&std::fs::read(d.join(f)).unwrap(), bytes, "{f} unchanged");
     }
     // A FIFO as the path file: refused without waiting for a writer.
-    assert!(
-        Command::new("mkfifo")
-            .arg(d.join("pipe"))
-            .status()
-            .unwrap()
-            .success()
-    );
+    e2e_tests::mkfifo(&d.join("pipe"));
     refused(
         &view(d, &["s.hlod", "--path", "pipe"]),
         "a FIFO, not a regular file",

@@ -389,3 +389,45 @@ fn a_budget_below_the_minimal_front_is_an_error_that_cannot_be_missed() {
         .count();
     assert!(red > 2000, "no error panel ({red} red pixels)");
 }
+
+#[test]
+fn the_smallest_scenes_complete_under_budget_auto_and_a_budget_too_small_to_complete_is_said() {
+    if !can_run(
+        "the_smallest_scenes_complete_under_budget_auto_and_a_budget_too_small_to_complete_is_said",
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // One triangle, one rep; and the dragon as one node of six LODs.
+    let (p, i) = (
+        vec![[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        vec![0, 1, 2],
+    );
+    std::fs::write(d.join("tri.gltf"), e2e_tests::tiny_gltf(&p, &i, 4, None)).unwrap();
+    let dragon = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/dragon_res4.glb");
+    for (model, scene) in [(d.join("tri.gltf"), "tri.hlod"), (dragon, "dragon.hlod")] {
+        hlod_builder::build::build_file(&model, &d.join(scene), &Default::default(), false)
+            .unwrap();
+        let out = view(d, &[scene, "--exit-when-complete", "--exit-after", "600"]);
+        let text = String::from_utf8_lossy(&out.stdout);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{scene}: {err}");
+        assert!(
+            text.contains("first complete frame"),
+            "{scene}: {text} {err}"
+        );
+    }
+    // The dragon's finest rep needs more than 100 KiB to load: said, and
+    // --exit-when-complete ends with that error instead of waiting.
+    let out = view(
+        d,
+        &["dragon.hlod", "--budget", "100KiB", "--exit-when-complete"],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("the view cannot complete at this budget"),
+        "{err}"
+    );
+}

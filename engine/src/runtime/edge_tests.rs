@@ -38,6 +38,8 @@ fn the_full_detail_footprint_is_enough_and_one_byte_less_is_said() {
     use crate::SceneFile;
     use crate::io::MemSource;
     let built = [
+        crate::testutil::build(&[1], &[0]),
+        crate::testutil::build_compressed(&[1], &[0]),
         crate::testutil::build(&[3], &[0]),
         crate::testutil::build_compressed(&[3], &[0]),
         crate::testutil::build_compressed(&[2, 3, 3], &[2, 0, 0]),
@@ -48,6 +50,11 @@ fn the_full_detail_footprint_is_enough_and_one_byte_less_is_said() {
         let src: Arc<dyn ByteSource> = Arc::new(MemSource::new(bytes));
         let need = skel.full_detail_bytes();
         assert!(need <= skel.in_core_bytes(), "scene {k}: 100% is enough");
+        if skel.reps.len() == 1 {
+            // One rep: the root's own load, nothing beside it.
+            let r = &skel.reps[0];
+            assert_eq!(need, r.expanded_extent() + r.load_scratch(), "scene {k}");
+        }
         for mode in [Mode::NoPre, Mode::Pre] {
             let mut walk =
                 Walkthrough::start(skel.clone(), src.clone(), params(mode, need)).unwrap();

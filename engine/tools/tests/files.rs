@@ -3,29 +3,13 @@
 //! name, hard link or symbolic link), and no reader blocks on a FIFO.
 
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Output};
+use std::time::Duration;
 
-/// Runs `exe` in `cwd`, killed after 60 s (a reader blocked on a FIFO would
-/// hang the test otherwise).
+/// Runs `exe` in `cwd`, killed after 60 s (a reader blocked on a FIFO
+/// would hang the test otherwise).
 fn run(exe: &str, args: &[&str], cwd: &Path) -> Output {
-    let mut child = Command::new(exe)
-        .args(args)
-        .current_dir(cwd)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("runs");
-    let t = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if t.elapsed() > Duration::from_secs(60) {
-            child.kill().unwrap();
-            panic!("{exe} {args:?} still running after 60 s (blocked?)");
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    child.wait_with_output().unwrap()
+    e2e_tests::run_limited(Command::new(exe).args(args), cwd, Duration::from_secs(60))
 }
 
 fn stderr(out: &Output) -> String {
@@ -219,13 +203,7 @@ fn no_bench_blocks_on_a_fifo() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     inputs(d);
-    assert!(
-        Command::new("mkfifo")
-            .arg(d.join("pipe"))
-            .status()
-            .unwrap()
-            .success()
-    );
+    e2e_tests::mkfifo(&d.join("pipe"));
     for (exe, args) in [
         (BENCH, vec!["pipe"]),
         (BENCH, vec!["s.hlod", "--path", "pipe"]),

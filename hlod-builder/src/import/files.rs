@@ -92,10 +92,19 @@ fn percent_decode(s: &str) -> String {
 }
 
 /// The external files a glTF's buffers name (resolved against `base_dir`;
-/// one that leaves it is left out, its build refuses it), for keying a
-/// build cache by everything the model is made of; none for a file that
-/// does not parse (its build reports why).
+/// one that leaves it is left out, its build refuses it); none for a file
+/// that does not parse (its build reports why).
 pub fn external_files(bytes: &[u8], base_dir: &Path) -> Vec<PathBuf> {
+    external_buffers(bytes, base_dir)
+        .into_iter()
+        .map(|(p, _)| p)
+        .collect()
+}
+
+/// [`external_files`] with the bytes each buffer declares (all the importer
+/// reads of the file), for keying a build cache by everything the model is
+/// made of without reading what it does not use.
+pub fn external_buffers(bytes: &[u8], base_dir: &Path) -> Vec<(PathBuf, u64)> {
     let Ok((json, _)) = doc::split(bytes) else {
         return Vec::new();
     };
@@ -104,10 +113,10 @@ pub fn external_files(bytes: &[u8], base_dir: &Path) -> Vec<PathBuf> {
     };
     d.buffers
         .iter()
-        .filter_map(|b| b.uri.as_deref())
-        .filter(|u| !u.starts_with("data:"))
         .enumerate()
-        .filter_map(|(i, u)| resolve_uri(i, u, base_dir).ok())
+        .filter_map(|(i, b)| Some((i, b.uri.as_deref()?, b.byte_length)))
+        .filter(|(_, u, _)| !u.starts_with("data:"))
+        .filter_map(|(i, u, len)| Some((resolve_uri(i, u, base_dir).ok()?, len)))
         .collect()
 }
 

@@ -33,7 +33,7 @@ use serde_json::Value;
 use crate::mesh::{Aabb, Mesh};
 
 use files::resolve_uri;
-pub use files::{allow_dir, external_files, json_part, model_files};
+pub use files::{allow_dir, external_buffers, external_files, json_part, model_files};
 pub use lazy::{Opened, open};
 
 /// Why a glTF file could not be imported.
