@@ -41,7 +41,9 @@ pub struct Args {
     /// and the build parameters are unchanged); can also be opened from the overlay.
     pub scene: Option<PathBuf>,
     /// Build cache directory for models opened directly (default:
-    /// $HLOD_CACHE_DIR, else $XDG_CACHE_HOME/hlod, else ~/.cache/hlod).
+    /// $HLOD_CACHE_DIR, else $XDG_CACHE_HOME/hlod, else ~/.cache/hlod, else
+    /// a private hlod-cache-UID in the temporary folder); it must be yours
+    /// and writable by no one else.
     #[arg(long)]
     pub cache: Option<PathBuf>,
     /// A folder a model's buffer and image `uri`s may name besides the

@@ -13,10 +13,7 @@ use libfuzzer_sys::fuzz_target;
 mod fix;
 
 fuzz_target!(|data: &[u8]| {
-    let mut bytes = data.to_vec();
-    if bytes.len().is_multiple_of(2) {
-        fix::fix_checksums(&mut bytes);
-    }
+    let bytes = fix::prepared(data);
     let key = bytes
         .get(..std::mem::size_of::<FileHeader>())
         .map(|h| bytemuck::pod_read_unaligned::<FileHeader>(h).source_key)

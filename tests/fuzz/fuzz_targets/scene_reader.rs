@@ -12,10 +12,7 @@ use libfuzzer_sys::fuzz_target;
 mod fix;
 
 fuzz_target!(|data: &[u8]| {
-    let mut bytes = data.to_vec();
-    if bytes.len().is_multiple_of(2) {
-        fix::fix_checksums(&mut bytes);
-    }
+    let bytes = fix::prepared(data);
     if let Ok(scene) = SceneFile::from_source(MemSource::new(bytes)) {
         let _ = scene.verify_all_reps();
         if let Ok(objects) = scene.read_objects() {
