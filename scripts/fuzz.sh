@@ -6,13 +6,13 @@
 # target and leaves the input in tests/fuzz/artifacts/TARGET/; it becomes a
 # regression test. Not run by CI except as a short smoke run (test.sh).
 #
-#   bash scripts/fuzz.sh [RUNS]            all six targets, one after another
+#   bash scripts/fuzz.sh [RUNS]            all seven targets, one after another
 #   TARGETS="gltf_import" bash scripts/fuzz.sh 100000
 #   SEED=1 bash scripts/fuzz.sh 20000      reproducible (test.sh's smoke run)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${1:-10000000}
-targets=${TARGETS:-"scene_reader vdt_reader gltf_import path_parser shard_reader cache_entry"}
+targets=${TARGETS:-"scene_reader vdt_reader gltf_import path_parser shard_reader cache_entry mesh_import"}
 if ! cargo +nightly --version >/dev/null 2>&1; then
   echo "fuzz: needs the nightly toolchain (rustup toolchain install nightly)" >&2
   exit 1

@@ -168,9 +168,7 @@ pub fn key_bytes(input: &Path, params: &BuildParams) -> Result<[u8; 16], ImportE
     h.update(&crate::lod::SIMPLIFICATION_REVISION.to_le_bytes());
     h.update(format!("{params:?}").as_bytes());
     hash_file(&mut h, input, u64::MAX).map_err(|e| read_err(input, e))?;
-    let head = import::json_part(input).map_err(|e| read_err(input, e))?;
-    let base = input.parent().unwrap_or(Path::new("."));
-    for (f, len) in import::external_buffers(&head, base) {
+    for (f, len) in import::read_files(input) {
         // A missing buffer is the build's error to report; it keys as absent.
         if hash_file(&mut h, &f, len).is_err() {
             h.update(b"missing");
@@ -405,6 +403,22 @@ mod tests {
         std::fs::set_permissions(&d, std::fs::Permissions::from_mode(0o1777)).unwrap();
         let e = prepare_dir(&d).unwrap_err().to_string();
         assert!(e.contains("can be written by other users"), "{e}");
+    }
+
+    #[test]
+    fn an_obj_files_material_library_is_part_of_the_key() {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = dir.path().join("m.obj");
+        std::fs::write(
+            &obj,
+            "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n",
+        )
+        .unwrap();
+        std::fs::write(dir.path().join("m.mtl"), "newmtl a\nKd 1 0 0\n").unwrap();
+        let p = BuildParams::default();
+        let k1 = key(&obj, &p).unwrap();
+        std::fs::write(dir.path().join("m.mtl"), "newmtl a\nKd 0 1 0\n").unwrap();
+        assert_ne!(k1, key(&obj, &p).unwrap(), "a new colour, a new entry");
     }
 
     #[test]

@@ -77,6 +77,13 @@ fn no_output_of_any_command_is_one_of_its_inputs() {
             d,
         ));
     }
+    // An OBJ with its material library.
+    std::fs::write(
+        d.join("o.obj"),
+        "mtllib o.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("o.mtl"), "newmtl a\nKd 1 0 0\n").unwrap();
     let model_files = ["m.gltf", "m.bin", "tex.png"];
     // Each command, where its output goes (OUT), and every file it reads.
     let table: &[(&[&str], &[&str])] = &[
@@ -95,6 +102,7 @@ fn no_output_of_any_command_is_one_of_its_inputs() {
             &model_files,
         ),
         (&["mt", "m.gltf", "-o", "OUT"], &model_files),
+        (&["build", "o.obj", "-o", "OUT", "-q"], &["o.obj", "o.mtl"]),
         (&["vdt", "m.gltf", "-o", "OUT"], &model_files),
     ];
     let before: Vec<(String, Vec<u8>)> = e2e_tests::names(d)

@@ -10,8 +10,9 @@ use std::time::Instant;
 
 use hlod_builder::cache::{Cached, cache_dir, cached_scene};
 
-/// Whether `path` is a glTF model rather than a scene file: by its first
-/// bytes (`glTF`, or JSON), else by its extension.
+/// Whether `path` is a model rather than a scene file: by its first bytes
+/// (`glTF`, or JSON), else by its extension (`.glb`, `.gltf`, `.ply`,
+/// `.obj`, `.stl`).
 pub fn is_model(path: &Path) -> bool {
     use std::io::Read;
     let mut head = [0u8; 8];
@@ -28,9 +29,7 @@ pub fn is_model(path: &Path) -> bool {
     {
         return true;
     }
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"))
+    hlod_builder::import::Format::of_extension(path).is_some()
 }
 
 /// Stage, nodes done, nodes in all.

@@ -431,3 +431,56 @@ fn the_smallest_scenes_complete_under_budget_auto_and_a_budget_too_small_to_comp
         "{err}"
     );
 }
+
+#[test]
+fn opens_ply_obj_and_stl_models_by_their_path() {
+    if !can_run("opens_ply_obj_and_stl_models_by_their_path") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (p, i) = e2e_tests::grid(12);
+    let mut ply = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+         property float z\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        p.len(),
+        i.len() / 3
+    );
+    let mut obj = String::new();
+    let mut stl = String::from("solid grid\n");
+    for v in &p {
+        ply += &format!("{} {} {}\n", v[0], v[1], v[2]);
+        obj += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+    }
+    for t in i.chunks_exact(3) {
+        ply += &format!("3 {} {} {}\n", t[0], t[1], t[2]);
+        obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+        stl += "facet normal 0 0 1\nouter loop\n";
+        for &k in t {
+            let v = p[k as usize];
+            stl += &format!("vertex {} {} {}\n", v[0], v[1], v[2]);
+        }
+        stl += "endloop\nendfacet\n";
+    }
+    stl += "endsolid grid\n";
+    for (name, text) in [("grid.ply", ply), ("grid.obj", obj), ("grid.stl", stl)] {
+        std::fs::write(d.join(name), text).unwrap();
+        let out = view(
+            d,
+            &[
+                name,
+                "--cache",
+                "cache",
+                "--exit-when-complete",
+                "--exit-after",
+                "600",
+            ],
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{name}: {err}");
+        assert!(
+            String::from_utf8_lossy(&out.stdout).contains("first complete frame"),
+            "{name}: {err}"
+        );
+    }
+}

@@ -29,27 +29,43 @@ pub fn allow_dir(dir: &Path) -> std::io::Result<()> {
 /// of it) and no [`allow_dir`] folder holds it, so that a model cannot
 /// build any local file into a scene a user may publish.
 pub(super) fn resolve_uri(i: usize, uri: &str, base_dir: &Path) -> Result<PathBuf, String> {
-    let decoded = percent_decode(uri);
+    resolve_in(
+        &format!("buffers[{i}]: uri"),
+        uri,
+        &percent_decode(uri),
+        base_dir,
+    )
+}
+
+/// The file `name` (as written in the model: `shown`, after `what`) names
+/// in `base_dir`, confined as [`resolve_uri`] confines a `uri` (an OBJ's
+/// `mtllib`, which is a path, not a URI).
+pub(super) fn resolve_in(
+    what: &str,
+    shown: &str,
+    name: &str,
+    base_dir: &Path,
+) -> Result<PathBuf, String> {
     let base_dir = if base_dir.as_os_str().is_empty() {
         Path::new(".")
     } else {
         base_dir
     };
-    let joined = base_dir.join(&decoded);
+    let joined = base_dir.join(name);
     let base = std::fs::canonicalize(base_dir)
-        .map_err(|e| format!("buffers[{i}]: the model's folder: {e}"))?;
+        .map_err(|e| format!("{what} {shown:?}: the model's folder: {e}"))?;
     // A file that does not exist is its reader's error to report, but only
     // once it is known not to leave the folder by its name alone.
     let target = match std::fs::canonicalize(&joined) {
         Ok(t) => t,
-        Err(_) => lexical(&base.join(&decoded)),
+        Err(_) => lexical(&base.join(name)),
     };
     let allowed = ALLOWED_DIRS.lock().unwrap_or_else(|e| e.into_inner());
     if target.starts_with(&base) || allowed.iter().any(|d| target.starts_with(d)) {
         return Ok(target);
     }
     Err(format!(
-        "buffers[{i}]: uri {uri:?} names {}, outside the model's folder {}: a model may only \
+        "{what} {shown:?} names {}, outside the model's folder {}: a model may only \
          read files beside it (--allow-dir DIR allows another folder)",
         target.display(),
         base.display()
@@ -120,13 +136,54 @@ pub fn external_buffers(bytes: &[u8], base_dir: &Path) -> Vec<(PathBuf, u64)> {
         .collect()
 }
 
-/// Every file a model is made of or names: the model, its external
-/// buffers and its images (resolved and confined as [`resolve_uri`]
-/// does). No output of a command that reads the model may be one of them.
-/// Only the model's JSON part is read; a model that does not parse names
-/// only itself (its reader says why).
+/// The files besides the model that its import reads, and how many of
+/// their bytes: a glTF's external buffers (their declared length, from its
+/// JSON part) or an OBJ's material libraries (whole); none for PLY and
+/// STL, nor for a model that does not parse (its reader says why). What a
+/// build cache is keyed by besides the model itself.
+pub fn read_files(model: &Path) -> Vec<(PathBuf, u64)> {
+    let base = model.parent().unwrap_or(Path::new("."));
+    match super::Format::of(model) {
+        super::Format::Gltf => json_part(model)
+            .map(|head| external_buffers(&head, base))
+            .unwrap_or_default(),
+        super::Format::Obj => material_libraries(model)
+            .into_iter()
+            .map(|p| (p, u64::MAX))
+            .collect(),
+        super::Format::Ply | super::Format::Stl => Vec::new(),
+    }
+}
+
+/// The material libraries an OBJ file names (`mtllib` lines) that lie in
+/// its folder, read line by line.
+fn material_libraries(model: &Path) -> Vec<PathBuf> {
+    use std::io::BufRead;
+    let Ok(f) = engine::infile::open(model) else {
+        return Vec::new();
+    };
+    let base = model.parent().unwrap_or(Path::new("."));
+    std::io::BufReader::new(f)
+        .split(b'\n')
+        .map_while(Result::ok)
+        .filter_map(|l| {
+            let l = String::from_utf8_lossy(&l).into_owned();
+            let name = l.trim().strip_prefix("mtllib")?.trim().to_string();
+            resolve_in("mtllib", &name, &name, base).ok()
+        })
+        .collect()
+}
+
+/// Every file a model is made of or names: the model, the files its
+/// import reads ([`read_files`]) and a glTF's images (resolved and
+/// confined as [`resolve_uri`] does). No output of a command that reads
+/// the model may be one of them.
 pub fn model_files(model: &Path) -> Vec<PathBuf> {
     let mut out = vec![model.to_path_buf()];
+    if super::Format::of(model) != super::Format::Gltf {
+        out.extend(read_files(model).into_iter().map(|(p, _)| p));
+        return out;
+    }
     let Ok(head) = json_part(model) else {
         return out;
     };

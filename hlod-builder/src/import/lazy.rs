@@ -21,19 +21,48 @@ const DECODED_CACHE_BYTES: u64 = 64 << 20;
 pub struct Opened {
     /// The scene; its `meshes` is empty, its `meta` full.
     pub scene: Imported,
-    doc: doc::Doc,
-    data: Vec<BufData>,
-    decoded: Decoded,
-    /// [`Buffers`]' bound on accessor sizes, computed once.
-    capacity: u64,
+    geometry: Geometry,
     path: PathBuf,
 }
 
+/// Where an opened scene's meshes come from.
+#[derive(Debug)]
+enum Geometry {
+    /// A glTF's document and buffers, read again per mesh.
+    Gltf {
+        doc: Box<doc::Doc>,
+        data: Vec<BufData>,
+        decoded: Decoded,
+        /// [`Buffers`]' bound on accessor sizes, computed once.
+        capacity: u64,
+    },
+    /// A mesh file's meshes, read whole ([`super::meshfile`]).
+    Meshes(Vec<Option<Mesh>>),
+}
+
 impl Opened {
+    /// A scene whose meshes are in memory (a PLY, OBJ or STL file).
+    pub(super) fn in_memory(scene: Imported, meshes: Vec<Option<Mesh>>, path: &Path) -> Self {
+        Self {
+            scene,
+            geometry: Geometry::Meshes(meshes),
+            path: path.to_path_buf(),
+        }
+    }
+
     /// Mesh `m`'s geometry, read from the file again (`None` when it has no
     /// usable triangles; its warnings were given when the scene opened).
     pub fn mesh(&self, m: usize) -> Result<Option<Mesh>, ImportError> {
-        let bufs = Buffers::with_capacity(&self.doc, &self.data, &self.decoded, self.capacity);
+        let (doc, data, decoded, capacity) = match &self.geometry {
+            Geometry::Meshes(meshes) => return Ok(meshes.get(m).cloned().flatten()),
+            Geometry::Gltf {
+                doc,
+                data,
+                decoded,
+                capacity,
+            } => (doc, data, decoded, *capacity),
+        };
+        let bufs = Buffers::with_capacity(doc.as_ref(), data, decoded, capacity);
         let mut warnings = Vec::new();
         prims::read_mesh(&bufs, m, &mut warnings)
             .map(|(mesh, _)| mesh)
@@ -56,9 +85,17 @@ impl Opened {
 const CHUNK_JSON: u32 = 0x4E4F_534A;
 const CHUNK_BIN: u32 = 0x004E_4942;
 
-/// Opens `path` (`.glb`, or `.gltf` with external or embedded buffers)
-/// lazily; the same checks and errors as [`super::load`].
+/// Opens `path` lazily: a glTF (`.glb`, or `.gltf` with external or
+/// embedded buffers) by span, a PLY, OBJ or STL file (by its extension)
+/// whole; the same checks and errors as [`super::load`].
 pub fn open(path: &Path) -> Result<Opened, ImportError> {
+    match super::Format::of(path) {
+        super::Format::Gltf => open_gltf(path),
+        f => super::meshfile::open(path, f),
+    }
+}
+
+fn open_gltf(path: &Path) -> Result<Opened, ImportError> {
     let read_err = |source| ImportError::Read {
         path: path.to_path_buf(),
         source,
@@ -101,10 +138,12 @@ pub fn open(path: &Path) -> Result<Opened, ImportError> {
     doc.scenes = Vec::new();
     Ok(Opened {
         scene,
-        doc,
-        data,
-        decoded,
-        capacity,
+        geometry: Geometry::Gltf {
+            doc: Box::new(doc),
+            data,
+            decoded,
+            capacity,
+        },
         path: path.to_path_buf(),
     })
 }

@@ -20,9 +20,13 @@ mod access;
 mod doc;
 mod files;
 mod lazy;
+mod meshfile;
 mod meshopt_view;
 mod nodes;
+mod obj;
+mod ply;
 mod prims;
+mod stl;
 
 use std::path::{Path, PathBuf};
 
@@ -33,8 +37,9 @@ use serde_json::Value;
 use crate::mesh::{Aabb, Mesh};
 
 use files::resolve_uri;
-pub use files::{allow_dir, external_buffers, external_files, json_part, model_files};
+pub use files::{allow_dir, external_buffers, external_files, json_part, model_files, read_files};
 pub use lazy::{Opened, open};
+pub use meshfile::{Format, parse_bytes as parse_mesh_bytes};
 
 /// Why a glTF file could not be imported.
 #[derive(Debug, thiserror::Error)]

@@ -5,6 +5,7 @@ mod bad_input;
 mod conformance;
 mod corrupt_gltf;
 mod fade;
+mod formats;
 mod layout;
 mod mt_scene;
 mod objects;
