@@ -31,8 +31,8 @@ pub fn read(path: &Path) -> Result<(Vec<Part>, Vec<String>), ImportError> {
 
 /// Reads an OBJ file from `source`, its material libraries from `base`.
 pub fn read_from(source: impl BufRead, base: &Path) -> Result<(Vec<Part>, Vec<String>), String> {
-    let text = prepare(source)?;
-    let warnings = RefCell::new(Vec::new());
+    let (text, prepared) = prepare(source)?;
+    let warnings = RefCell::new(prepared);
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: true,
@@ -102,15 +102,18 @@ pub fn read_from(source: impl BufRead, base: &Path) -> Result<(Vec<Part>, Vec<St
     Ok((parts, warnings))
 }
 
-/// The OBJ text for `tobj`, checked line by line first: every line UTF-8,
-/// every face corner's vertex and normal index within the vertices and
-/// normals before it (`tobj` 4.0.5 overflows on a relative index past the
-/// start), and the texture coordinates left out (they are not drawn; their
-/// lines stay as blank lines, so that line numbers hold).
-fn prepare(mut source: impl BufRead) -> Result<Vec<u8>, String> {
+/// The OBJ text for `tobj`, checked line by line first: every face
+/// corner's vertex and normal index within the vertices and normals before
+/// it (`tobj` 4.0.5 overflows on a relative index past the start). Left
+/// out, as blank lines so that line numbers hold: texture coordinates (not
+/// drawn) and a `usemtl` without a name (`tobj` refuses the file). A line
+/// that is not UTF-8 (a Latin-1 name) is read with its bad bytes replaced;
+/// both are said once, with the first line.
+fn prepare(mut source: impl BufRead) -> Result<(Vec<u8>, Vec<String>), String> {
     let mut out = Vec::new();
     let (mut vertices, mut normals) = (0u64, 0u64);
     let mut line = Vec::new();
+    let (mut not_utf8, mut unnamed) = (Vec::new(), Vec::new());
     for n in 1.. {
         line.clear();
         if source
@@ -120,11 +123,25 @@ fn prepare(mut source: impl BufRead) -> Result<Vec<u8>, String> {
         {
             break;
         }
-        let text =
-            std::str::from_utf8(&line).map_err(|_| format!("OBJ: line {n} is not UTF-8 text"))?;
+        if n == 1 && (line.starts_with(b"\xFE\xFF") || line.starts_with(b"\xFF\xFE")) {
+            return Err("OBJ: the file is UTF-16 text (save it as UTF-8)".into());
+        }
+        if std::str::from_utf8(&line).is_err() {
+            not_utf8.push(n);
+            line = String::from_utf8_lossy(&line).into_owned().into_bytes();
+        }
+        let text = String::from_utf8_lossy(&line).into_owned();
         let mut tokens = text.split_whitespace();
-        match tokens.next() {
+        let first = tokens.next();
+        if first == Some("usemtl") && tokens.clone().next().is_none() {
+            unnamed.push(n);
+        }
+        match first {
             Some("vt") => {
+                out.push(b'\n');
+                continue;
+            }
+            Some("usemtl") if unnamed.last() == Some(&n) => {
                 out.push(b'\n');
                 continue;
             }
@@ -143,7 +160,24 @@ fn prepare(mut source: impl BufRead) -> Result<Vec<u8>, String> {
             out.push(b'\n');
         }
     }
-    Ok(out)
+    let mut warnings = Vec::new();
+    let said = |lines: &[usize], what: &str| {
+        format!(
+            "OBJ: {} line(s) {what}, the first line {}",
+            lines.len(),
+            lines[0]
+        )
+    };
+    if !not_utf8.is_empty() {
+        warnings.push(said(
+            &not_utf8,
+            "not UTF-8 text, read with the bad bytes replaced",
+        ));
+    }
+    if !unnamed.is_empty() {
+        warnings.push(said(&unnamed, "`usemtl` without a name, ignored"));
+    }
+    Ok((out, warnings))
 }
 
 /// A face corner `v[/vt[/vn]]` against the `vertices` and `normals`
@@ -275,6 +309,18 @@ mod tests {
         assert_eq!(
             e,
             "OBJ: line 6: normal index -2 out of range of the 1 normal entries before it"
+        );
+        // Latin-1 text and a bare `usemtl` are read, and said.
+        let mut latin = rel.replace("1/-3/-2", "1//1").into_bytes();
+        latin.extend_from_slice(b"g caf\xe9\nusemtl\n");
+        let (_, w) = read_from(&latin[..], dir.path()).unwrap();
+        assert!(
+            w[0].contains("not UTF-8 text") && w[0].contains("line 7"),
+            "{w:?}"
+        );
+        assert!(
+            w[1].contains("`usemtl` without a name") && w[1].contains("line 8"),
+            "{w:?}"
         );
         let ok = rel.replace("1/-3/-2", "-3/1/-1");
         let (parts, _) = read_from(ok.as_bytes(), dir.path()).unwrap();

@@ -5,7 +5,7 @@
 //! `vertex_index`, polygons fanned into triangles). Other elements are
 //! read past. The whole file is one object, named by its stem.
 
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
 use glam::DVec3;
@@ -133,13 +133,16 @@ pub fn read(path: &Path) -> Result<(Vec<Part>, Vec<String>), ImportError> {
 
 /// Reads a PLY file from `source` as one part named `name`; errors name the
 /// element.
-pub fn read_from(source: impl BufRead, name: String) -> Result<(Vec<Part>, Vec<String>), String> {
-    let mut reader = Reader::new(source);
+pub fn read_from(
+    mut source: impl BufRead,
+    name: String,
+) -> Result<(Vec<Part>, Vec<String>), String> {
+    let (head, mut warnings) = header_lines(&mut source)?;
+    let mut reader = Reader::new(std::io::Cursor::new(head).chain(source));
     let header = Parser::<Skip>::new()
         .read_header(&mut reader)
         .map_err(|e| format!("PLY header: {}", describe(&e)))?;
     let (mut vertices, mut faces) = (None, None);
-    let mut warnings = Vec::new();
     for (element, def) in &header.elements {
         let what = |e: ply_rs_bw::parser::ParseError| {
             format!(
@@ -211,6 +214,52 @@ pub fn read_from(source: impl BufRead, name: String) -> Result<(Vec<Part>, Vec<S
         indices,
     };
     Ok((vec![part], warnings))
+}
+
+/// The words a PLY header line may start with.
+const KEYWORDS: [&str; 7] = [
+    "ply",
+    "format",
+    "comment",
+    "element",
+    "property",
+    "obj_info",
+    "end_header",
+];
+
+/// The header's lines up to `end_header` (at most 1 MiB), with a line that
+/// starts with no keyword made a comment (old Blender exporters wrote a
+/// bare "Created by …" line), said once.
+fn header_lines(source: &mut impl BufRead) -> Result<(Vec<u8>, Vec<String>), String> {
+    let (mut head, mut line, mut fixed) = (Vec::new(), Vec::new(), Vec::new());
+    for n in 1.. {
+        line.clear();
+        let read = (source.take(1 << 20)).read_until(b'\n', &mut line);
+        if read.map_err(|e| format!("PLY header: {e}"))? == 0 {
+            break;
+        }
+        if head.len() + line.len() > 1 << 20 {
+            return Err("PLY header: no end_header in its first MiB".into());
+        }
+        let text = String::from_utf8_lossy(&line);
+        let word = text.split_whitespace().next().unwrap_or("");
+        if n > 1 && !word.is_empty() && !KEYWORDS.contains(&word) {
+            head.extend_from_slice(b"comment ");
+            fixed.push(n);
+        }
+        head.extend_from_slice(&line);
+        if word == "end_header" {
+            break;
+        }
+    }
+    let warnings = match fixed.first() {
+        Some(first) => vec![format!(
+            "PLY header: {} line(s) with no keyword read as comments, the first line {first}",
+            fixed.len()
+        )],
+        None => Vec::new(),
+    };
+    Ok((head, warnings))
 }
 
 /// A parser error on one line: its message and the text it could not
@@ -341,5 +390,13 @@ mod tests {
         assert!(e.contains("point cloud"), "{e}");
         let e = read_from(&b"solid x\nendsolid\n"[..], "b".into()).unwrap_err();
         assert!(e.starts_with("PLY header"), "{e}");
+        // A header line with no keyword (old Blender exports) is a comment.
+        let blender = ASCII.replace("comment a quad", "Created by Blender 2.47: a quad");
+        let (parts, w) = read_from(blender.as_bytes(), "q".into()).unwrap();
+        assert_eq!(parts[0].indices.len(), 9);
+        assert_eq!(
+            w,
+            ["PLY header: 1 line(s) with no keyword read as comments, the first line 3"]
+        );
     }
 }

@@ -219,11 +219,7 @@ fn bad_mesh_files_fail_with_one_error_naming_the_file() {
             b"v 0 0 0\nv 1 0 0\nv 1 x 0\nf 1 2 3\n".to_vec(),
             "line 3",
         ),
-        (
-            "latin1.obj",
-            b"v 0 0 0\n# caf\xe9\n".to_vec(),
-            "line 2 is not UTF-8",
-        ),
+        ("utf16.obj", b"\xFF\xFEv\x00 \x000\x00".to_vec(), "UTF-16"),
         (
             "empty.obj",
             b"# nothing\n".to_vec(),
