@@ -192,6 +192,27 @@ fn assemble(parts: Vec<Part>, warnings: &mut Vec<String>) -> Assembled {
     }
 }
 
+/// A mesh file opened under the input policy, and the name of the object
+/// it makes when it makes one (its stem).
+pub fn open_file(path: &Path) -> Result<(std::fs::File, String), ImportError> {
+    let file = engine::infile::open(path).map_err(|source| ImportError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let name = path
+        .file_stem()
+        .map_or_else(|| "mesh".into(), |s| s.to_string_lossy().into_owned());
+    Ok((file, name))
+}
+
+/// A reader's message as the error naming `path`.
+pub fn invalid(path: &Path) -> impl Fn(String) -> ImportError + '_ {
+    move |what| ImportError::Invalid {
+        path: path.to_path_buf(),
+        what,
+    }
+}
+
 /// Checks every index against `vertices`, naming the first face out of
 /// range (`what` names the element, e.g. "face").
 pub fn check_indices(indices: &[u32], vertices: usize, what: &str) -> Result<(), String> {

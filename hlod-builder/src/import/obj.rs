@@ -13,20 +13,14 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 
 use super::ImportError;
-use super::meshfile::{Part, check_indices};
+use super::meshfile::{Part, check_indices, invalid, open_file};
 
 /// Reads the OBJ file at `path` (and the material libraries it names).
 pub fn read(path: &Path) -> Result<(Vec<Part>, Vec<String>), ImportError> {
-    let file = engine::infile::open(path).map_err(|source| ImportError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let (file, _) = open_file(path)?;
     let base = path.parent().unwrap_or(Path::new("."));
     let reader = std::io::BufReader::with_capacity(1 << 20, file);
-    read_from(reader, base).map_err(|what| ImportError::Invalid {
-        path: path.to_path_buf(),
-        what,
-    })
+    read_from(reader, base).map_err(invalid(path))
 }
 
 /// Reads an OBJ file from `source`, its material libraries from `base`.

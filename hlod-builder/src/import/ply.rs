@@ -13,7 +13,7 @@ use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{Header, Property, PropertyAccess, PropertyAccessResult};
 
 use super::ImportError;
-use super::meshfile::{Part, check_indices, fan};
+use super::meshfile::{Part, check_indices, fan, invalid, open_file};
 
 /// A vertex as read: position, normal and colour (channels in [0, 1]).
 #[derive(Clone, Copy, Debug)]
@@ -118,17 +118,8 @@ impl PropertyAccess for Skip {
 
 /// Reads the PLY file at `path`.
 pub fn read(path: &Path) -> Result<(Vec<Part>, Vec<String>), ImportError> {
-    let file = engine::infile::open(path).map_err(|source| ImportError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let name = path
-        .file_stem()
-        .map_or_else(|| "mesh".into(), |s| s.to_string_lossy().into_owned());
-    read_from(BufReader::with_capacity(1 << 20, file), name).map_err(|what| ImportError::Invalid {
-        path: path.to_path_buf(),
-        what,
-    })
+    let (file, name) = open_file(path)?;
+    read_from(BufReader::with_capacity(1 << 20, file), name).map_err(invalid(path))
 }
 
 /// Reads a PLY file from `source` as one part named `name`; errors name the

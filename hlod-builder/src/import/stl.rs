@@ -9,23 +9,12 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::ImportError;
-use super::meshfile::{Part, check_indices};
+use super::meshfile::{Part, check_indices, invalid, open_file};
 
 /// Reads the STL file at `path`.
 pub fn read(path: &Path) -> Result<(Vec<Part>, Vec<String>), ImportError> {
-    let file = engine::infile::open(path).map_err(|source| ImportError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let name = path
-        .file_stem()
-        .map_or_else(|| "mesh".into(), |s| s.to_string_lossy().into_owned());
-    read_from(&mut BufReader::with_capacity(1 << 20, file), name).map_err(|what| {
-        ImportError::Invalid {
-            path: path.to_path_buf(),
-            what,
-        }
-    })
+    let (file, name) = open_file(path)?;
+    read_from(&mut BufReader::with_capacity(1 << 20, file), name).map_err(invalid(path))
 }
 
 /// Reads an STL file from `source` as one part named `name`.
