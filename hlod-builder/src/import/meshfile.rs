@@ -100,7 +100,7 @@ pub fn open(path: &Path, format: Format) -> Result<Opened, ImportError> {
 /// fuzz target's entry, `tests/fuzz/fuzz_targets/mesh_import.rs`).
 pub fn parse_bytes(bytes: &[u8], format: Format, base: &Path) -> Result<u64, String> {
     let (parts, mut warnings) = match format {
-        Format::Ply => super::ply::read_from(bytes, "mesh".into()),
+        Format::Ply => super::ply::read_from(bytes, "mesh".into(), bytes.len() as u64),
         Format::Obj => super::obj::read_from(bytes, base),
         Format::Stl => super::stl::read_from(&mut std::io::Cursor::new(bytes), "mesh".into()),
         Format::Gltf => return Err("glTF bytes are read by import::load_slice".into()),

@@ -1,4 +1,5 @@
-//! glTF 2.0 import (`.gltf` + external or embedded buffers, `.glb`).
+//! Model import: glTF 2.0 (`.gltf` + external or embedded buffers, `.glb`),
+//! and PLY, OBJ and STL ([`meshfile`], by the file's extension).
 //!
 //! - [`doc`]: the document as permissive serde types; a required extension
 //!   that cannot be honoured (Draco) is refused before anything else.

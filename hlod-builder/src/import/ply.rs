@@ -119,14 +119,17 @@ impl PropertyAccess for Skip {
 /// Reads the PLY file at `path`.
 pub fn read(path: &Path) -> Result<(Vec<Part>, Vec<String>), ImportError> {
     let (file, name) = open_file(path)?;
-    read_from(BufReader::with_capacity(1 << 20, file), name).map_err(invalid(path))
+    let len = file.metadata().map_or(u64::MAX, |m| m.len());
+    read_from(BufReader::with_capacity(1 << 20, file), name, len).map_err(invalid(path))
 }
 
-/// Reads a PLY file from `source` as one part named `name`; errors name the
-/// element.
+/// Reads a PLY file of `len` bytes from `source` as one part named `name`;
+/// errors name the element. An element count that `len` bytes cannot hold
+/// is refused before anything is read for it.
 pub fn read_from(
     mut source: impl BufRead,
     name: String,
+    len: u64,
 ) -> Result<(Vec<Part>, Vec<String>), String> {
     let (head, mut warnings) = header_lines(&mut source)?;
     let mut reader = Reader::new(std::io::Cursor::new(head).chain(source));
@@ -135,6 +138,7 @@ pub fn read_from(
         .map_err(|e| format!("PLY header: {}", describe(&e)))?;
     let (mut vertices, mut faces) = (None, None);
     for (element, def) in &header.elements {
+        fits(def, &header, len).map_err(|e| format!("PLY element {element}: {e}"))?;
         let what = |e: ply_rs_bw::parser::ParseError| {
             format!(
                 "PLY element {element} ({} of them): {}",
@@ -205,6 +209,36 @@ pub fn read_from(
         indices,
     };
     Ok((vec![part], warnings))
+}
+
+/// Whether `def.count` elements can be in a file of `len` bytes: each
+/// takes at least its scalars' and list counts' bytes in binary, a byte in
+/// ASCII. (A header that claims a billion elements of a file of a few
+/// hundred bytes would otherwise have the parser make them.)
+fn fits(def: &ply_rs_bw::ply::ElementDef, header: &Header, len: u64) -> Result<(), String> {
+    use ply_rs_bw::ply::{Encoding, PropertyType, ScalarType};
+    let size = |t: &ScalarType| match t {
+        ScalarType::Char | ScalarType::UChar => 1u64,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    };
+    let each = match header.encoding {
+        Encoding::Ascii => 1,
+        _ => (def.properties.values())
+            .map(|p| match &p.data_type {
+                PropertyType::Scalar(t) | PropertyType::List(t, _) => size(t),
+            })
+            .sum::<u64>()
+            .max(1),
+    };
+    let count = def.count as u64;
+    if count.saturating_mul(each) > len {
+        return Err(format!(
+            "{count} of them cannot be in a file of {len} bytes (at least {each} B each)"
+        ));
+    }
+    Ok(())
 }
 
 /// The words a PLY header line may start with.
@@ -342,7 +376,7 @@ mod tests {
 
     #[test]
     fn ascii_and_binary_of_both_byte_orders() {
-        let (parts, w) = read_from(ASCII.as_bytes(), "q".into()).unwrap();
+        let (parts, w) = read_from(ASCII.as_bytes(), "q".into(), 1 << 20).unwrap();
         assert!(w.is_empty(), "{w:?}");
         let p = &parts[0];
         assert_eq!(p.indices, [0, 1, 2, 0, 2, 3, 3, 2, 4]);
@@ -350,7 +384,7 @@ mod tests {
         assert_eq!(p.colors[3], [10, 20, 30, 255]);
         assert!(p.normals.is_empty());
         for big in [false, true] {
-            let (parts, w) = read_from(&binary(big)[..], "b".into()).unwrap();
+            let (parts, w) = read_from(&binary(big)[..], "b".into(), 1 << 20).unwrap();
             assert_eq!(w, ["PLY element edge: not read"]);
             assert_eq!(parts[0].indices, [0, 1, 2]);
             assert_eq!(parts[0].positions[1], DVec3::X);
@@ -362,28 +396,44 @@ mod tests {
     #[test]
     fn bad_files_say_what_is_wrong() {
         let cut = &binary(false)[..binary(false).len() - 5];
-        let e = read_from(cut, "b".into()).unwrap_err();
+        let e = read_from(cut, "b".into(), cut.len() as u64).unwrap_err();
         assert!(e.starts_with("PLY element face"), "{e}");
         let e = read_from(
             &b"ply\nformat ascii 1.0\nelement vertex x\n"[..],
             "b".into(),
+            40,
         );
         assert!(e.unwrap_err().starts_with("PLY header"));
-        let e = read_from(ASCII.replace("3 3 2 4", "3 3 2 9").as_bytes(), "b".into());
+        let e = read_from(
+            ASCII.replace("3 3 2 4", "3 3 2 9").as_bytes(),
+            "b".into(),
+            1 << 20,
+        );
         assert_eq!(
             e.unwrap_err(),
             "PLY triangle 2: vertex index 9 out of range of 5 vertices"
         );
-        let e = read_from(ASCII.replace("3 3 2 4", "3 3 2 -1").as_bytes(), "b".into());
+        let e = read_from(
+            ASCII.replace("3 3 2 4", "3 3 2 -1").as_bytes(),
+            "b".into(),
+            1 << 20,
+        );
         assert_eq!(e.unwrap_err(), "PLY face 1: a negative vertex index");
         let points = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n";
-        let e = read_from(points.as_bytes(), "b".into()).unwrap_err();
+        // A count the file cannot hold: refused before it is read.
+        let huge = ASCII.replace("element vertex 5", "element vertex 777777777");
+        let e = read_from(huge.as_bytes(), "b".into(), huge.len() as u64).unwrap_err();
+        assert!(
+            e.starts_with("PLY element vertex: 777777777 of them cannot be in a file"),
+            "{e}"
+        );
+        let e = read_from(points.as_bytes(), "b".into(), 1 << 20).unwrap_err();
         assert!(e.contains("point cloud"), "{e}");
-        let e = read_from(&b"solid x\nendsolid\n"[..], "b".into()).unwrap_err();
+        let e = read_from(&b"solid x\nendsolid\n"[..], "b".into(), 20).unwrap_err();
         assert!(e.starts_with("PLY header"), "{e}");
         // A header line with no keyword (old Blender exports) is a comment.
         let blender = ASCII.replace("comment a quad", "Created by Blender 2.47: a quad");
-        let (parts, w) = read_from(blender.as_bytes(), "q".into()).unwrap();
+        let (parts, w) = read_from(blender.as_bytes(), "q".into(), 1 << 20).unwrap();
         assert_eq!(parts[0].indices.len(), 9);
         assert_eq!(
             w,
