@@ -68,7 +68,15 @@ pub struct FileHeader {
     /// keys its cache and its shards (zero when not recorded: files of
     /// earlier builds, scenes built in memory). Inside the header's CRC.
     pub source_key: [u8; 16],
-    pub reserved: [u32; 5],
+    /// Of `input_triangles`, those the finest reps hold (degenerate ones
+    /// and hidden objects' left out), as the low and high halves of a
+    /// `u64` (the header has no 8-aligned room left); zero when not
+    /// recorded (files of earlier builds). Inside the header's CRC.
+    pub drawn_triangles: [u32; 2],
+    /// Of `input_triangles`, those of objects left out by default (IFC
+    /// opening voids and spaces), as `drawn_triangles`.
+    pub hidden_triangles: [u32; 2],
+    pub reserved: [u32; 1],
 }
 const _: () = assert!(size_of::<FileHeader>() == 192);
 
@@ -97,6 +105,16 @@ pub struct FileHeaderV1 {
 }
 const _: () = assert!(size_of::<FileHeaderV1>() == 128);
 
+/// A `u64` stored as two `u32` halves (low first).
+pub fn split_u64(v: u64) -> [u32; 2] {
+    [v as u32, (v >> 32) as u32]
+}
+
+/// The `u64` of [`split_u64`]'s halves.
+pub fn join_u64(h: [u32; 2]) -> u64 {
+    u64::from(h[0]) | (u64::from(h[1]) << 32)
+}
+
 impl FileHeaderV1 {
     /// The same facts in the version-2 layout (origin zero, no object
     /// section). `header_crc` keeps the version-1 value.
@@ -124,7 +142,9 @@ impl FileHeaderV1 {
             objects_len: 0,
             objects_crc: 0,
             source_key: [0; 16],
-            reserved: [0; 5],
+            drawn_triangles: [0; 2],
+            hidden_triangles: [0; 2],
+            reserved: [0; 1],
         }
     }
 }

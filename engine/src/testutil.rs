@@ -137,6 +137,8 @@ fn build_impl(
         input_triangles: 2 * leaf as u64,
         origin,
         source_key: [0; 16],
+        drawn_triangles: 2 * leaf as u64,
+        hidden_triangles: 0,
     };
     let bytes = writer
         .finish_with_objects(&skeleton, &meta, objects)

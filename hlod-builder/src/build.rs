@@ -552,6 +552,8 @@ fn scene_tail(
         input_triangles: stats.input_triangles,
         origin: scene.origin,
         source_key: scene.source_key,
+        drawn_triangles: stats.usable_triangles,
+        hidden_triangles: stats.hidden_triangles,
     };
     (meta, ObjectTable::encode(&object_infos(scene), leaf_runs))
 }

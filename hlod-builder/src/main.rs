@@ -343,6 +343,7 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
             .get(root.first_rep as usize)
             .map_or(f32::NAN, |r| r.error)
     );
+    println!("{}", input_line(&scene.meta()));
     let o = scene.meta().origin;
     println!(
         "origin {} {} {} (world position of the scene's coordinates; {} in the object section)",
@@ -565,4 +566,25 @@ fn vdt_report(
     }
     println!("(import {load_s:.2} s)");
     Ok(())
+}
+
+/// What the source held and what the finest reps draw of it: input
+/// triangles after instancing, degenerate ones and hidden objects' included,
+/// and each part said.
+fn input_line(m: &engine::SceneMeta) -> String {
+    if m.drawn_triangles == 0 {
+        return format!(
+            "input: {} triangles after instancing (what the finest reps draw of them is not \
+             recorded in files of earlier builds)",
+            m.input_triangles
+        );
+    }
+    let dropped = m
+        .input_triangles
+        .saturating_sub(m.drawn_triangles + m.hidden_triangles);
+    format!(
+        "input: {} triangles after instancing: {} drawn by the finest reps, {} degenerate dropped, \
+         {} of hidden objects (IFC voids and spaces)",
+        m.input_triangles, m.drawn_triangles, dropped, m.hidden_triangles
+    )
 }

@@ -126,8 +126,8 @@ pub enum Variant {
     DeepChain,
     /// Everything moved to survey coordinates (5,000 km, 3,000 km).
     Survey,
-    /// `KHR_draco_mesh_compression` required: must be refused.
-    DracoRequired,
+    /// An extension no importer here knows is required: must be refused.
+    UnknownRequired,
     /// One placement scaled by 1e30 and one NaN: those two skipped.
     HostileTransforms,
     /// A node that is its own ancestor: must be refused.
@@ -146,7 +146,7 @@ pub const VARIANTS: &[Variant] = &[
     Variant::EmptyScene,
     Variant::DeepChain,
     Variant::Survey,
-    Variant::DracoRequired,
+    Variant::UnknownRequired,
     Variant::HostileTransforms,
     Variant::Cycle,
 ];
@@ -309,10 +309,10 @@ pub fn write(flat: &Flat, v: Variant) -> (Vec<u8>, Expect) {
                     "extensions": { "KHR_materials_unlit": {} } }),
             ];
         }
-        Variant::DracoRequired => {
-            used.push("KHR_draco_mesh_compression");
-            required.push("KHR_draco_mesh_compression");
-            expect = Expect::Refusal("KHR_draco_mesh_compression");
+        Variant::UnknownRequired => {
+            used.push("EXT_acme_teleport");
+            required.push("EXT_acme_teleport");
+            expect = Expect::Refusal("EXT_acme_teleport");
         }
         _ => {}
     }

@@ -43,8 +43,19 @@ fn can_run(test: &str) -> bool {
 
 /// Runs the viewer under `xvfb-run`, killed after two minutes.
 fn view(dir: &Path, args: &[&str]) -> Output {
+    // Each run starts its search for a free display at its own number:
+    // `xvfb-run -a` alone lets two runs started at once take the same one.
+    static RUNS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let k = RUNS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let first = 100 + (std::process::id() % 400) * 20 + k;
     let mut child = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 1280x800x24"])
+        .args([
+            "-a",
+            "-n",
+            &first.to_string(),
+            "-s",
+            "-screen 0 1280x800x24",
+        ])
         .arg(env!("CARGO_BIN_EXE_hlod-view"))
         .args(args)
         .current_dir(dir)
@@ -483,4 +494,32 @@ fn opens_ply_obj_and_stl_models_by_their_path() {
             "{name}: {err}"
         );
     }
+}
+
+/// An IFC file opens by its path: IfcOpenShell (installed by
+/// scripts/setup.sh in target/ifc-venv) converts it, the viewer builds it
+/// and walks it; the Duplex's 286 products are its objects.
+#[test]
+fn opens_an_ifc_model_by_its_path() {
+    if !can_run("opens_an_ifc_model_by_its_path") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ifc = e2e_tests::data_dir().join("ifc/Ifc2x3_Duplex_Architecture.ifc");
+    let out = view(
+        d,
+        &[
+            ifc.to_str().unwrap(),
+            "--cache",
+            "cache",
+            "--exit-when-complete",
+            "--exit-after",
+            "900",
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(said.contains("first complete frame"), "{said}\n{err}");
 }

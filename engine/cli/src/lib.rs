@@ -19,8 +19,11 @@ pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
     // A command never writes a file it read (engine::infile).
     engine::infile::track_inputs();
     use tracing_subscriber::layer::SubscriberExt as _;
-    use tracing_subscriber::util::SubscriberInitExt as _;
-    tracing_subscriber::registry()
+    // Set directly, not with `SubscriberInitExt::init`: that also routes
+    // the `log` crate's records (wgpu's, winit's: thousands) here whenever
+    // some dependency turns on tracing-subscriber's `tracing-log` feature,
+    // as a workspace build's feature unification can.
+    let subscriber = tracing_subscriber::registry()
         .with(
             tracing_subscriber::fmt::layer()
                 .with_writer(std::io::stderr)
@@ -28,8 +31,8 @@ pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
                 .without_time()
                 .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr())),
         )
-        .with(ErrorCount)
-        .init();
+        .with(ErrorCount);
+    let _ = tracing::subscriber::set_global_default(subscriber);
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
         if !is_broken_pipe(info.payload()) {

@@ -23,6 +23,10 @@ pub struct SceneMeta {
     pub origin: [f64; 3],
     /// What the scene was built from ([`crate::FileHeader::source_key`]).
     pub source_key: [u8; 16],
+    /// Of the input triangles, those the finest reps hold (0: not recorded).
+    pub drawn_triangles: u64,
+    /// Of the input triangles, those of objects left out by default.
+    pub hidden_triangles: u64,
 }
 
 /// An opened scene: the validated header and skeleton in core, the source kept
@@ -100,6 +104,8 @@ impl<S: ByteSource> SceneFile<S> {
             input_triangles: self.header.input_triangles,
             origin: self.header.origin,
             source_key: self.header.source_key,
+            drawn_triangles: crate::records::join_u64(self.header.drawn_triangles),
+            hidden_triangles: crate::records::join_u64(self.header.hidden_triangles),
         }
     }
 

@@ -128,7 +128,9 @@ impl<W: Write + Seek> SceneWriter<W> {
             objects_len: objects.len() as u64,
             objects_crc: crc32fast::hash(objects),
             source_key: meta.source_key,
-            reserved: [0; 5],
+            drawn_triangles: crate::records::split_u64(meta.drawn_triangles),
+            hidden_triangles: crate::records::split_u64(meta.hidden_triangles),
+            reserved: [0; 1],
         };
         header.header_crc = crc32fast::hash(bytemuck::bytes_of(&header));
         self.out.seek(SeekFrom::Start(0))?;

@@ -286,7 +286,7 @@ fn sub_range(offset: u64, len: Option<u64>, total: u64) -> Option<(u64, u64)> {
 
 /// The value of one component as `f32`, normalized to [0, 1] or [-1, 1]
 /// when the accessor says so.
-fn component_f32(t: u32, normalized: bool, b: &[u8]) -> f32 {
+pub(crate) fn component_f32(t: u32, normalized: bool, b: &[u8]) -> f32 {
     match (t, normalized) {
         (F32, _) => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
         (I8, false) => f32::from(b[0] as i8),

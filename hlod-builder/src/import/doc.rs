@@ -19,6 +19,7 @@ use serde_json::Value;
 /// models of which only the base colour is taken).
 const SUPPORTED: &[&str] = &[
     "KHR_mesh_quantization",
+    "KHR_draco_mesh_compression",
     "EXT_meshopt_compression",
     "KHR_meshopt_compression",
     "EXT_mesh_gpu_instancing",
@@ -42,15 +43,8 @@ pub fn supported(ext: &str) -> bool {
 }
 
 /// What to do about a required extension this importer cannot decode.
-pub fn advice(ext: &str) -> &'static str {
-    match ext {
-        "KHR_draco_mesh_compression" => {
-            "Draco-compressed geometry cannot be read: re-export without Draco, or with meshopt \
-             compression (`gltfpack -i IN -o OUT -cc`, or `gltf-transform meshopt IN OUT`)"
-        }
-        "EXT_meshopt_compression" | "KHR_meshopt_compression" => "",
-        _ => "re-export the model without this extension",
-    }
+pub fn advice(_ext: &str) -> &'static str {
+    "re-export the model without this extension"
 }
 
 /// Only `extensionsRequired`, read before anything else so that a file this

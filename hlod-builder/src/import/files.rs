@@ -151,7 +151,7 @@ pub fn read_files(model: &Path) -> Vec<(PathBuf, u64)> {
             .into_iter()
             .map(|p| (p, u64::MAX))
             .collect(),
-        super::Format::Ply | super::Format::Stl => Vec::new(),
+        super::Format::Ply | super::Format::Stl | super::Format::Ifc => Vec::new(),
     }
 }
 

@@ -65,7 +65,7 @@ impl Opened {
         let bufs = Buffers::with_capacity(doc.as_ref(), data, decoded, capacity);
         let mut warnings = Vec::new();
         prims::read_mesh(&bufs, m, &mut warnings)
-            .map(|(mesh, _)| mesh)
+            .map(|(mesh, ..)| mesh)
             .map_err(|what| ImportError::Invalid {
                 path: self.path.clone(),
                 what,
@@ -91,8 +91,18 @@ const CHUNK_BIN: u32 = 0x004E_4942;
 pub fn open(path: &Path) -> Result<Opened, ImportError> {
     match super::Format::of(path) {
         super::Format::Gltf => open_gltf(path),
+        super::Format::Ifc => open_ifc(path),
         f => super::meshfile::open(path, f),
     }
+}
+
+/// An IFC file, converted to a GLB that is opened and then removed (the
+/// open file keeps its data); errors name the IFC file.
+fn open_ifc(path: &Path) -> Result<Opened, ImportError> {
+    let glb = super::ifc::convert(path)?;
+    let mut opened = open_gltf(glb.path()).map_err(|e| e.naming(path))?;
+    opened.path = path.to_path_buf();
+    Ok(opened)
 }
 
 fn open_gltf(path: &Path) -> Result<Opened, ImportError> {

@@ -24,6 +24,8 @@ pub enum Format {
     Obj,
     /// STL, ASCII or binary.
     Stl,
+    /// IFC (STEP), converted by IfcOpenShell ([`super::ifc`]).
+    Ifc,
 }
 
 impl Format {
@@ -36,6 +38,7 @@ impl Format {
             "ply" => Format::Ply,
             "obj" => Format::Obj,
             "stl" => Format::Stl,
+            "ifc" => Format::Ifc,
             _ => return None,
         })
     }
@@ -52,6 +55,7 @@ impl Format {
             Format::Ply => "PLY",
             Format::Obj => "OBJ",
             Format::Stl => "STL",
+            Format::Ifc => "IFC",
         }
     }
 }
@@ -77,7 +81,7 @@ pub fn open(path: &Path, format: Format) -> Result<Opened, ImportError> {
         Format::Ply => super::ply::read(path),
         Format::Obj => super::obj::read(path),
         Format::Stl => super::stl::read(path),
-        Format::Gltf => unreachable!("glTF is read by import::lazy"),
+        Format::Gltf | Format::Ifc => unreachable!("glTF and IFC are read by import::lazy"),
     }?;
     let assembled = assemble(parts, &mut warnings);
     if assembled.instances.is_empty() {
@@ -104,6 +108,7 @@ pub fn parse_bytes(bytes: &[u8], format: Format, base: &Path) -> Result<u64, Str
         Format::Obj => super::obj::read_from(bytes, base),
         Format::Stl => super::stl::read_from(&mut std::io::Cursor::new(bytes), "mesh".into()),
         Format::Gltf => return Err("glTF bytes are read by import::load_slice".into()),
+        Format::Ifc => return Err("IFC is read by IfcOpenShell, from a file".into()),
     }?;
     let a = assemble(parts, &mut warnings);
     Ok(a.scene.meta.iter().flatten().map(|m| m.tris as u64).sum())

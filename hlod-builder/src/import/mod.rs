@@ -19,7 +19,10 @@
 
 mod access;
 mod doc;
+mod draco;
+mod draco_ffi;
 mod files;
+mod ifc;
 mod lazy;
 mod meshfile;
 mod meshopt_view;
@@ -58,6 +61,20 @@ pub enum ImportError {
     Invalid { path: PathBuf, what: String },
     #[error("{path}: the scene has no renderable triangles: {why}")]
     NoTriangles { path: PathBuf, why: String },
+}
+
+impl ImportError {
+    /// The same error, naming `path` (an IFC file for its converted GLB).
+    pub fn naming(self, path: &Path) -> Self {
+        let path = path.to_path_buf();
+        match self {
+            ImportError::Read { source, .. } => ImportError::Read { path, source },
+            ImportError::Parse { what, .. } => ImportError::Parse { path, what },
+            ImportError::Unsupported { what, .. } => ImportError::Unsupported { path, what },
+            ImportError::Invalid { what, .. } => ImportError::Invalid { path, what },
+            ImportError::NoTriangles { why, .. } => ImportError::NoTriangles { path, why },
+        }
+    }
 }
 
 /// Whether an object, by the IFC class its name starts with (as IFC
@@ -113,6 +130,9 @@ pub struct MeshMeta {
     pub vertices: usize,
     /// Box of its referenced vertices, in its local space.
     pub bounds: Aabb,
+    /// What [`prims::recentre`] took off the file's positions (its
+    /// placements add it back): zero for most meshes.
+    pub offset: [f32; 3],
 }
 
 impl MeshMeta {
@@ -121,6 +141,7 @@ impl MeshMeta {
             tris: m.tri_count(),
             vertices: m.vertex_count(),
             bounds: m.bounds(),
+            offset: [0.0; 3],
         }
     }
 }
@@ -258,15 +279,39 @@ fn assemble(
         ..Imported::default()
     };
     for m in 0..doc.meshes.len() {
-        let (mesh, source) = prims::read_mesh(bufs, m, &mut out.warnings).map_err(&invalid)?;
-        out.meta.push(mesh.as_ref().map(MeshMeta::of));
+        let (mesh, source, offset) =
+            prims::read_mesh(bufs, m, &mut out.warnings).map_err(&invalid)?;
+        out.meta.push(mesh.as_ref().map(|mesh| MeshMeta {
+            offset,
+            ..MeshMeta::of(mesh)
+        }));
         if keep {
             out.meshes.push(mesh);
         }
         out.source_tris.push(source);
     }
+    // Placed as the file places them (boxes where the file has them), then
+    // each placement moved by its mesh's offset, composed in f64.
+    let boxes: Vec<Option<Aabb>> = out
+        .meta
+        .iter()
+        .map(|m| {
+            m.map(|m| {
+                let o = glam::Vec3::from(m.offset);
+                Aabb {
+                    min: m.bounds.min + o,
+                    max: m.bounds.max + o,
+                }
+            })
+        })
+        .collect();
+    let mut placed = nodes::place(doc, bufs, &boxes, &mut out.warnings).map_err(&invalid)?;
     let boxes: Vec<Option<Aabb>> = out.meta.iter().map(|m| m.map(|m| m.bounds)).collect();
-    let placed = nodes::place(doc, bufs, &boxes, &mut out.warnings).map_err(&invalid)?;
+    for p in &mut placed {
+        if let Some(meta) = &out.meta[p.mesh] {
+            p.world *= DMat4::from_translation(glam::Vec3::from(meta.offset).as_dvec3());
+        }
+    }
     if placed.is_empty() {
         return Err(ImportError::NoTriangles {
             path: path.to_path_buf(),

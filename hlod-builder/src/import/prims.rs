@@ -2,6 +2,7 @@
 //! coloured by its material's base colour (times `COLOR_0`).
 
 use super::access::{self, Buffers, F32, I8, I16, U8, U16, U32};
+use super::draco;
 use crate::mesh::Mesh;
 
 /// Triangle topologies (points and lines are skipped).
@@ -10,13 +11,14 @@ const STRIP: u32 = 5;
 const FAN: u32 = 6;
 
 /// All primitives of mesh `m` merged, with the triangle count read
-/// (degenerate ones included). Structural errors (an accessor out of its
-/// buffer) fail the file; a part that cannot be drawn is a warning.
+/// (degenerate ones included) and the offset [`recentre`] took off its
+/// positions. Structural errors (an accessor out of its buffer) fail the
+/// file; a part that cannot be drawn is a warning.
 pub fn read_mesh(
     bufs: &Buffers,
     m: usize,
     warnings: &mut Vec<String>,
-) -> Result<(Option<Mesh>, u64), String> {
+) -> Result<(Option<Mesh>, u64, [f32; 3]), String> {
     let doc = bufs.doc;
     let mut out = Mesh::default();
     let mut source = 0u64;
@@ -40,23 +42,44 @@ pub fn read_mesh(
             ));
             continue;
         }
-        check_position_type(bufs, pos, &what, warnings);
-        let positions = access::read_f32::<3>(bufs, pos)
-            .map_err(|e| format!("{what}.attributes.POSITION: {e}"))?;
+        let draco = if draco::is_compressed(prim) {
+            let named = match &doc.meshes[m].name {
+                Some(n) => format!("{what} (mesh {n:?})"),
+                None => what.clone(),
+            };
+            Some(draco::decode(bufs, prim).map_err(|e| format!("{named}: {e}"))?)
+        } else {
+            check_position_type(bufs, pos, &what, warnings);
+            None
+        };
+        let (positions, draco_normals, draco_colors, raw, mode) = match draco {
+            Some(d) => (d.positions, d.normals, d.colors, Some(d.indices), TRIANGLES),
+            None => {
+                let p = access::read_f32::<3>(bufs, pos)
+                    .map_err(|e| format!("{what}.attributes.POSITION: {e}"))?;
+                (p, None, None, None, prim.mode)
+            }
+        };
         if positions.iter().flatten().any(|c| !c.is_finite()) {
             warnings.push(format!("{what}: non-finite positions, skipped"));
             continue;
         }
-        let normals = read_normals(
-            bufs,
-            prim.attributes.get("NORMAL").copied(),
-            &what,
-            warnings,
-        )?
+        let normals = match draco_normals {
+            Some(n) => Some(n),
+            None => read_normals(
+                bufs,
+                prim.attributes.get("NORMAL").copied(),
+                &what,
+                warnings,
+            )?,
+        }
         .filter(|n| n.len() == positions.len() && n.iter().flatten().all(|c| c.is_finite()));
-        let raw = match prim.indices {
-            Some(a) => access::read_indices(bufs, a).map_err(|e| format!("{what}.indices: {e}"))?,
-            None => (0..positions.len() as u32).collect(),
+        let raw = match (raw, prim.indices) {
+            (Some(r), _) => r,
+            (None, Some(a)) => {
+                access::read_indices(bufs, a).map_err(|e| format!("{what}.indices: {e}"))?
+            }
+            (None, None) => (0..positions.len() as u32).collect(),
         };
         if let Some(&bad) = raw.iter().find(|&&i| i as usize >= positions.len()) {
             warnings.push(format!(
@@ -65,13 +88,14 @@ pub fn read_mesh(
             ));
             continue;
         }
-        let indices = triangulate(prim.mode, &raw);
+        let indices = triangulate(mode, &raw);
         let material = prim.material.and_then(|i| doc.materials.get(i));
         let base = material.map_or([1.0; 4], |mat| mat.base_color());
-        let mut colors = match prim.attributes.get("COLOR_0") {
-            Some(&a) => read_colors(bufs, a, base, positions.len())
+        let mut colors = match (draco_colors, prim.attributes.get("COLOR_0")) {
+            (Some(rgba), _) => tint(rgba, base),
+            (None, Some(&a)) => read_colors(bufs, a, base, positions.len())
                 .map_err(|e| format!("{what}.attributes.COLOR_0: {e}"))?,
-            None => vec![to_rgba8(base); positions.len()],
+            (None, None) => vec![to_rgba8(base); positions.len()],
         };
         // The alpha mode decides what the alpha means (opaque without one).
         if let Some(m) = material {
@@ -101,9 +125,33 @@ pub fn read_mesh(
         warnings.push(format!(
             "meshes[{m}]: no usable triangles, its instances skipped"
         ));
-        return Ok((None, source));
+        return Ok((None, source, [0.0; 3]));
     }
-    Ok((Some(out), source))
+    let offset = recentre(&mut out);
+    Ok((Some(out), source, offset))
+}
+
+/// Moves a mesh that lies far from its own origin (its centre farther than
+/// it is large: quantized positions under a scale and a translation that
+/// cancels them, survey coordinates) to its centre, and returns the offset
+/// taken off, which the placement adds back in `f64`. In `f32` the
+/// placement's large translation and large products would cancel and
+/// lose the millimetres; near the centre they do not. Other meshes are
+/// left as they are (offset zero).
+pub fn recentre(mesh: &mut Mesh) -> [f32; 3] {
+    let b = mesh.bounds_of_all();
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    let centre = (lo + hi) * 0.5;
+    if centre.abs().max_element() <= (hi - lo).max_element() {
+        return [0.0; 3];
+    }
+    let c = centre.as_vec3().to_array();
+    for p in &mut mesh.positions {
+        for k in 0..3 {
+            p[k] -= c[k];
+        }
+    }
+    c
 }
 
 /// POSITION's component type against glTF 2.0 and `KHR_mesh_quantization`:
@@ -213,10 +261,14 @@ fn read_colors(bufs: &Buffers, a: usize, base: [f64; 4], n: usize) -> Result<Vec
     if rgba.len() != n {
         return Err(format!("{} colours for {n} vertices", rgba.len()));
     }
-    Ok(rgba
-        .into_iter()
+    Ok(tint(rgba, base))
+}
+
+/// Vertex colours times the material's base colour, as bytes.
+fn tint(rgba: Vec<[f32; 4]>, base: [f64; 4]) -> Vec<[u8; 4]> {
+    rgba.into_iter()
         .map(|c| to_rgba8(std::array::from_fn(|k| base[k] * f64::from(c[k]))))
-        .collect())
+        .collect()
 }
 
 fn triangulate(mode: u32, idx: &[u32]) -> Vec<u32> {

@@ -266,17 +266,17 @@ fn fuzz_seeds_and_regressions_run_clean() {
 
 #[test]
 fn an_unsupported_required_extension_is_refused_first_in_one_short_line() {
-    // Draco required, and the rest broken too: the Draco line comes first.
-    let json = br#"{"asset":{"version":"2.0"},"extensionsRequired":["KHR_draco_mesh_compression"],
-        "extensionsUsed":["KHR_draco_mesh_compression"],"accessors":5,"meshes":[{"primitives":[]}]}"#;
-    let e = fails("draco.gltf", json).to_string();
+    // Splats required, and the rest broken too: that line comes first.
+    let json = br#"{"asset":{"version":"2.0"},"extensionsRequired":["KHR_gaussian_splatting"],
+        "extensionsUsed":["KHR_gaussian_splatting"],"accessors":5,"meshes":[{"primitives":[]}]}"#;
+    let e = fails("splats.gltf", json).to_string();
     assert!(
-        e.contains("KHR_draco_mesh_compression") && e.contains("meshopt"),
+        e.contains("KHR_gaussian_splatting") && e.contains("re-export"),
         "{e}"
     );
     assert!(!e.contains('\n') && e.len() < 400, "one short line: {e}");
     assert_eq!(
-        e.matches("draco.gltf").count(),
+        e.matches("splats.gltf").count(),
         1,
         "the file named once: {e}"
     );

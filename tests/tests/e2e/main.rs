@@ -4,8 +4,10 @@
 mod bad_input;
 mod conformance;
 mod corrupt_gltf;
+mod draco;
 mod fade;
 mod formats;
+mod ifc;
 mod layout;
 mod mt_scene;
 mod objects;
