@@ -16,6 +16,9 @@ has_pkg libvulkan1 || need+=(libvulkan1)
 # Python for IfcOpenShell (IFC input), in a virtual environment below.
 command -v python3 >/dev/null 2>&1 || need+=(python3)
 python3 -c "import venv, ensurepip" >/dev/null 2>&1 || need+=(python3-venv)
+# Node and npm for gltfpack and gltf-transform (the re-encoding corpus test).
+command -v node >/dev/null 2>&1 || need+=(nodejs)
+command -v npm >/dev/null 2>&1 || need+=(npm)
 # A virtual display for the viewer's window test.
 command -v xvfb-run >/dev/null 2>&1 || need+=(xvfb)
 command -v xauth >/dev/null 2>&1 || need+=(xauth)
@@ -40,4 +43,14 @@ if ! "$venv/bin/python" -c "import ifcopenshell, sys; sys.exit(ifcopenshell.vers
   rm -rf "$venv"
   python3 -m venv "$venv"
   "$venv/bin/python" -m pip install -q --disable-pip-version-check "ifcopenshell==$IFCOPENSHELL"
+fi
+
+# gltfpack and gltf-transform, which write the re-encoding corpus
+# (tests/tests/e2e/reencode.rs, scripts/reencode.sh): in target/npm-tools, pinned.
+tools="$(cd "$(dirname "$0")/.." && pwd)/target/npm-tools"
+if ! [ -x "$tools/node_modules/.bin/gltfpack" ] || ! [ -x "$tools/node_modules/.bin/gltf-transform" ] ||
+  ! grep -q '"version": "4.5.1"' "$tools/node_modules/@gltf-transform/cli/package.json" 2>/dev/null; then
+  echo "setup: installing gltfpack 1.3.0 and gltf-transform 4.5.1 in target/npm-tools"
+  mkdir -p "$tools"
+  npm install --silent --no-audit --no-fund --prefix "$tools" gltfpack@1.3.0 @gltf-transform/cli@4.5.1
 fi

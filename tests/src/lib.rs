@@ -2,6 +2,7 @@
 //! `tests/tests/`. This library holds their shared helpers.
 
 pub mod conformance;
+pub mod reencode;
 
 use std::path::PathBuf;
 

@@ -12,6 +12,7 @@ mod layout;
 mod mt_scene;
 mod objects;
 mod occlusion;
+mod reencode;
 mod render;
 mod scenes;
 mod vdt;
