@@ -8,6 +8,14 @@ if [ -z "${XDG_RUNTIME_DIR:-}" ]; then
   export XDG_RUNTIME_DIR="$(mktemp -d)"
   chmod 700 "$XDG_RUNTIME_DIR"
 fi
+# Files small enough to read in one sitting: no source file over 700 lines.
+long=$(git ls-files '*.rs' '*.wgsl' '*.py' '*.cc' '*.sh' 2>/dev/null | xargs -r wc -l |
+  awk '$2 != "total" && $1 > 700 { print "  " $2 ": " $1 " lines" }')
+if [ -n "$long" ]; then
+  echo "test: source files over 700 lines:" >&2
+  echo "$long" >&2
+  exit 1
+fi
 if cargo fmt --version >/dev/null 2>&1; then
   cargo fmt --all -- --check
 else

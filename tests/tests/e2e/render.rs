@@ -81,6 +81,11 @@ fn check_golden(name: &str, img: &RgbaImage) {
         .join("golden")
         .join(format!("{name}.png"));
     if std::env::var_os("UPDATE_GOLDEN").is_some() {
+        // A CI run checks the goldens; it never rewrites them.
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "UPDATE_GOLDEN is refused under CI: rewrite goldens on a workstation and commit them"
+        );
         std::fs::create_dir_all(golden.parent().unwrap()).unwrap();
         img.save_png(&golden).unwrap();
         return;
