@@ -575,6 +575,21 @@ impl Writer {
     }
 }
 
+/// The JSON and the BIN chunk of a GLB (the inverse of [`glb`]).
+pub fn split_glb(b: &[u8]) -> (Value, Vec<u8>) {
+    let jl = u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
+    let json = serde_json::from_slice(&b[20..20 + jl]).unwrap();
+    let at = 20 + jl;
+    let bin = match b.get(at..at + 4) {
+        Some(l) => {
+            let bl = u32::from_le_bytes(l.try_into().unwrap()) as usize;
+            b[at + 8..at + 8 + bl].to_vec()
+        }
+        None => Vec::new(),
+    };
+    (json, bin)
+}
+
 /// A GLB container around `doc` and `bin`.
 pub fn glb(doc: &Value, bin: &[u8]) -> Vec<u8> {
     let mut json = serde_json::to_vec(doc).unwrap();

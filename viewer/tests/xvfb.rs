@@ -476,50 +476,42 @@ fn opens_ply_obj_and_stl_models_by_their_path() {
     stl += "endsolid grid\n";
     for (name, text) in [("grid.ply", ply), ("grid.obj", obj), ("grid.stl", stl)] {
         std::fs::write(d.join(name), text).unwrap();
-        let out = view(
-            d,
-            &[
-                name,
-                "--cache",
-                "cache",
-                "--exit-when-complete",
-                "--exit-after",
-                "600",
-            ],
-        );
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(0), "{name}: {err}");
-        assert!(
-            String::from_utf8_lossy(&out.stdout).contains("first complete frame"),
-            "{name}: {err}"
-        );
+        opens_and_completes(d, name, "600");
     }
 }
 
+/// `hlod-view MODEL` builds the model into its cache and reaches a complete
+/// frame within `frames`, exiting 0.
+fn opens_and_completes(d: &Path, model: &str, frames: &str) {
+    let out = view(
+        d,
+        &[
+            model,
+            "--cache",
+            "cache",
+            "--exit-when-complete",
+            "--exit-after",
+            frames,
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{model}: {err}");
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        said.contains("first complete frame"),
+        "{model}: {said}\n{err}"
+    );
+}
+
 /// An IFC file opens by its path: IfcOpenShell (installed by
-/// scripts/setup.sh in target/ifc-venv) converts it, the viewer builds it
-/// and walks it; the Duplex's 286 products are its objects.
+/// scripts/setup.sh in target/ifc-venv) converts it, and the viewer builds
+/// it and walks it to a complete frame.
 #[test]
 fn opens_an_ifc_model_by_its_path() {
     if !can_run("opens_an_ifc_model_by_its_path") {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
     let ifc = e2e_tests::data_dir().join("ifc/Ifc2x3_Duplex_Architecture.ifc");
-    let out = view(
-        d,
-        &[
-            ifc.to_str().unwrap(),
-            "--cache",
-            "cache",
-            "--exit-when-complete",
-            "--exit-after",
-            "900",
-        ],
-    );
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(0), "{err}");
-    let said = String::from_utf8_lossy(&out.stdout);
-    assert!(said.contains("first complete frame"), "{said}\n{err}");
+    opens_and_completes(dir.path(), ifc.to_str().unwrap(), "900");
 }

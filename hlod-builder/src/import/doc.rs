@@ -42,11 +42,6 @@ pub fn supported(ext: &str) -> bool {
     SUPPORTED.contains(&ext) || ext.starts_with("KHR_materials_")
 }
 
-/// What to do about a required extension this importer cannot decode.
-pub fn advice(_ext: &str) -> &'static str {
-    "re-export the model without this extension"
-}
-
 /// Only `extensionsRequired`, read before anything else so that a file this
 /// importer cannot decode gets that one message first.
 #[derive(Debug, Default, Deserialize)]
@@ -356,8 +351,8 @@ pub fn parse(json: &[u8]) -> Result<Doc, String> {
     for ext in &required.extensions_required {
         if !supported(ext) {
             return Err(format!(
-                "requires the extension {ext}, which this importer does not support: {}",
-                advice(ext)
+                "requires the extension {ext}, which this importer does not support: re-export \
+                 the model without this extension"
             ));
         }
     }

@@ -125,6 +125,9 @@ impl DracoMesh {
     /// Each point's value of attribute `uid`, its bytes as stored
     /// (`components × component_bytes` a point).
     pub fn values(&self, uid: u32, shape: Shape) -> Result<Vec<u8>, String> {
+        if self.attribute(uid) != Some(shape) {
+            return Err(format!("no attribute of unique id {uid}"));
+        }
         let n = self
             .num_points()
             .checked_mul(shape.components)
@@ -134,9 +137,6 @@ impl DracoMesh {
         out.try_reserve_exact(n)
             .map_err(|_| format!("cannot allocate {n} bytes of values"))?;
         out.resize(n, 0);
-        if self.attribute(uid) != Some(shape) {
-            return Err(format!("no attribute of unique id {uid}"));
-        }
         // SAFETY: `out` holds num_points × the attribute's stride bytes,
         // what the shim writes for this attribute (its shape checked above).
         let bad = unsafe { hlod_draco_values(self.0.as_ptr(), uid, out.as_mut_ptr()) };

@@ -31,7 +31,7 @@ enum Outcome {
 }
 
 /// The scene box of an import, in world coordinates.
-fn world_box(imp: &import::Imported) -> (Vec3, Vec3) {
+pub(crate) fn world_box(imp: &import::Imported) -> (Vec3, Vec3) {
     let o = Vec3::from(imp.origin.map(|c| c as f32));
     let mut b = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for inst in &imp.instances {

@@ -29,15 +29,6 @@ const PAIRS: &[(&str, &str)] = &[
     ("grid-colours.gt-draco-seq.glb", "grid-colours.glb"),
 ];
 
-/// The JSON and BIN chunks of a GLB.
-fn split(b: &[u8]) -> (Value, Vec<u8>) {
-    let jl = u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
-    let json = serde_json::from_slice(&b[20..20 + jl]).unwrap();
-    let at = 20 + jl;
-    let bl = u32::from_le_bytes(b[at..at + 4].try_into().unwrap()) as usize;
-    (json, b[at + 8..at + 8 + bl].to_vec())
-}
-
 /// The byte range in BIN of every Draco stream, with its POSITION id.
 fn streams(doc: &Value) -> Vec<(usize, usize, u64)> {
     let mut out = Vec::new();
@@ -56,7 +47,7 @@ fn streams(doc: &Value) -> Vec<(usize, usize, u64)> {
 /// The largest position quantisation step of any stream of the file, read
 /// from the streams themselves (the decoder's portable form keeps it).
 fn position_step(bytes: &[u8]) -> f32 {
-    let (doc, bin) = split(bytes);
+    let (doc, bin) = conformance::split_glb(bytes);
     let mut step = 0f32;
     for (a, b, uid) in streams(&doc) {
         let p = draco_oxide_decoder::decode_mesh_portable(&bin[a..b]).unwrap();
@@ -191,7 +182,7 @@ fn draco_colours_and_normals_are_the_sources() {
 /// `doc` and `bin` changed by `f`, imported from memory.
 fn damaged(mut f: impl FnMut(&mut Value, &mut Vec<u8>)) -> String {
     let bytes = std::fs::read(data_dir().join("real/AC14-FZK-Haus.gt-draco.glb")).unwrap();
-    let (mut doc, mut bin) = split(&bytes);
+    let (mut doc, mut bin) = conformance::split_glb(&bytes);
     f(&mut doc, &mut bin);
     let out = conformance::glb(&doc, &bin);
     match import::load_slice(&out, Path::new("."), Path::new("haus.glb")) {

@@ -8,20 +8,9 @@
 use std::collections::BTreeSet;
 
 use e2e_tests::data_dir;
-use glam::Vec3;
 use hlod_builder::import::{self, Imported};
 
-fn world_box(imp: &Imported) -> (Vec3, Vec3) {
-    let o = Vec3::from(imp.origin.map(|c| c as f32));
-    let mut b = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for inst in &imp.instances {
-        for p in &imp.meshes[inst.mesh].as_ref().unwrap().positions {
-            let w = inst.transform.transform_point3(Vec3::from(*p)) + o;
-            b = (b.0.min(w), b.1.max(w));
-        }
-    }
-    b
-}
+use crate::conformance::world_box;
 
 #[test]
 fn ifc_files_open_with_the_objects_triangles_and_box_of_their_glb() {

@@ -9,8 +9,9 @@
 use e2e_tests::conformance;
 use e2e_tests::data_dir;
 use e2e_tests::reencode::{self, ENCODINGS};
-use glam::Vec3;
-use hlod_builder::import::{self, Imported};
+use hlod_builder::import;
+
+use crate::conformance::world_box;
 
 const SMALL: &[&str] = &[
     "AC14-FZK-Haus.glb",
@@ -28,20 +29,6 @@ const ALL: &[&str] = &[
     "schependomlaan_subcontractors.glb",
     "bunny.glb",
 ];
-
-fn world_box(imp: &Imported) -> (Vec3, Vec3) {
-    let o = Vec3::from(imp.origin.map(|c| c as f32));
-    let mut b = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for inst in &imp.instances {
-        if let Some(m) = &imp.meshes[inst.mesh] {
-            for p in &m.positions {
-                let w = inst.transform.transform_point3(Vec3::from(*p)) + o;
-                b = (b.0.min(w), b.1.max(w));
-            }
-        }
-    }
-    b
-}
 
 #[test]
 fn re_encodings_by_gltfpack_and_gltf_transform_import_with_their_declared_count_and_box() {
