@@ -3,17 +3,21 @@
 //! plots (`plots`) and, with the wgpu renderer, the image quality of the
 //! out-of-core frames against the in-core ones (PSNR on sampled frames).
 
+mod anatomy;
+mod args;
 mod bounds;
 mod fidelity;
 mod mt_table;
 mod oracle;
 mod plots;
+mod raster;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
+use args::Args;
 use clap::Parser;
 use engine::SceneFile;
 use engine::camera::{PathKind, Pose, format_path, generate_path, read_path};
@@ -24,167 +28,15 @@ use engine::metrics::{CsvStream, Recorder, Summary, TracePoint, summary_table, v
 use engine::outfile::write_bytes;
 use engine::render::{NoneRenderer, Renderer};
 use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path_each};
-use engine_cli::{in_range, parse_size, size_or_off, zero_or_in};
+use engine_cli::{in_range, parse_size, size_or_off};
 use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use glam::Vec3;
 
-#[derive(Parser, Debug)]
-#[command(
-    name = "hlod-bench",
-    version,
-    about = "Walk a camera path through a scene in-core and out-of-core"
-)]
-struct Args {
-    scene: PathBuf,
-    /// Camera path file (default: the scene's generated fly-through).
-    #[arg(long)]
-    path: Option<PathBuf>,
-    /// Generated path when no --path: flythrough, approach, orbit,
-    /// approach-orbit, random (a hostile random walk with jumps, for soak
-    /// runs; see --seed) or interior (a walk at eye height through a
-    /// building's storeys and rooms, found from its geometry; see --seed).
-    #[arg(long, default_value = "flythrough")]
-    path_kind: String,
-    /// Seed of the random path.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// Frames of a generated path.
-    #[arg(long, default_value_t = 600, value_parser = in_range(1usize, 1_000_000))]
-    frames: usize,
-    #[arg(long, default_value = "incore,nopre,pre")]
-    modes: String,
-    /// Memory footprint: bytes, with KiB/MiB/GiB, or a percentage of the rep data (e.g. 2.5%).
-    #[arg(long, default_value = "2.5%")]
-    budget: String,
-    /// A sweep over several footprints (comma-separated, like --budget); replaces --budget.
-    #[arg(long)]
-    budgets: Option<String>,
-    /// Error tolerance ε in pixels.
-    #[arg(long, default_value_t = 2.0, value_parser = in_range(0.01f32, 10_000.0))]
-    tolerance: f32,
-    /// none (no rasterisation) or wgpu (a GPU, or lavapipe without one).
-    #[arg(long, default_value = "none")]
-    renderer: String,
-    /// Debug colouring of the wgpu renderer: object, lod, kind or substituted.
-    #[arg(long, default_value = "object")]
-    colouring: String,
-    /// With wgpu: read back every N-th frame and compare it with the in-core
-    /// frame (PSNR); 0 = off.
-    #[arg(long, default_value_t = 30, value_parser = in_range(0u32, 1_000_000))]
-    psnr_every: u32,
-    /// With wgpu: save the sampled frames as PNG under OUT/frames.
-    #[arg(long)]
-    save_frames: bool,
-    /// Modelled speed of the none renderer in triangles per second (0: free).
-    #[arg(long, default_value_t = 0.0, value_parser = zero_or_in(1e3, 1e13))]
-    render_rate: f64,
-    /// file (the real file, page cache dropped), hdd, ssd, nvme, or LATENCY_MS:MB_PER_S.
-    #[arg(long, default_value = "file")]
-    disk: String,
-    /// Frame pacing (0: as fast as possible).
-    #[arg(long, default_value_t = 30.0, value_parser = zero_or_in(1.0f32, 1000.0))]
-    fps: f32,
-    #[arg(long, default_value_t = 1280, value_parser = in_range(16u32, 8192))]
-    width: u32,
-    #[arg(long, default_value_t = 720, value_parser = in_range(16u32, 8192))]
-    height: u32,
-    /// Bins B of the prefetcher.
-    #[arg(long, default_value_t = 16, value_parser = in_range(1usize, 4096))]
-    bins: usize,
-    /// δ in pixels (0: 4 ε).
-    #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 100_000.0))]
-    delta: f32,
-    /// Base widening of F_I, degrees.
-    #[arg(long, default_value_t = 30.0, value_parser = in_range(0.0f32, 180.0))]
-    margin: f32,
-    /// Widest F_I, degrees (90 or more: all around the eye).
-    #[arg(long, default_value_t = 60.0, value_parser = in_range(0.0f32, 180.0))]
-    max_margin: f32,
-    /// Levels of PAR/CHD prefetched.
-    #[arg(long, default_value_t = 1, value_parser = in_range(0u8, 16))]
-    prefetch_depth: u8,
-    /// Sweep: reps of F_I's front up to this size (bytes, KiB, MiB) are also
-    /// read in file order, alternating with the bins; 0 = off.
-    #[arg(long, default_value = "0")]
-    sweep: String,
-    /// Largest share of the budget for prefetched reps not yet drawn.
-    #[arg(long, default_value_t = 0.6, value_parser = in_range(0.01f32, 1.0))]
-    speculative_share: f32,
-    /// Lookahead: P_I also prefetches the fronts of the positions the
-    /// camera's motion reaches in this many frames (and a third of it); 0 = off.
-    #[arg(long, default_value_t = 10, value_parser = in_range(0u32, 10_000))]
-    lookahead: u32,
-    /// F_I goes all around the eye whenever the all-around front takes at
-    /// most this share of the reps' room (the budget less the pages'
-    /// share); 0 = never.
-    #[arg(long, default_value_t = 1.0, value_parser = in_range(0.0f32, 1000.0))]
-    all_around: f32,
-    /// Print what any fetching policy could do on this path (from the
-    /// fronts alone: the first-time reps, the oracle's working set, the disk
-    /// time of reading the path's reps in file order, demand fetching with
-    /// optimal eviction), write it to OUT/bounds.md, and run nothing.
-    #[arg(long)]
-    bounds: bool,
-    /// Start-up: frames rendered at the path's first pose before the path
-    /// begins (P_I loads the first front and prefetches around it, as an
-    /// in-core viewer loads everything before its first frame); they are
-    /// reported as the start-up, not as path frames.
-    #[arg(long, default_value_t = 0, value_parser = in_range(0usize, 1_000_000))]
-    warmup: usize,
-    /// Output directory for CSVs, the summary, plots and the path used.
-    #[arg(long, default_value = "out/bench")]
-    out: PathBuf,
-    /// Place-holder bytes reserved per resident view-dependence tree (bytes
-    /// or a percentage of the scene data), out of the footprint.
-    #[arg(long, default_value = "4MiB")]
-    vdt_pool: String,
-    /// What a Multi-Triangulation's store keeps after a frame: p-c (the
-    /// paper's caching), p-cc, p-nc or np-nc.
-    #[arg(long, default_value = "p-c")]
-    mt_cache: String,
-    /// Longest gap P_I reads through rather than seeking over (the
-    /// break-even gap is learnt; this caps it); 0 turns coalescing off.
-    #[arg(long, default_value = "1MiB")]
-    coalesce_gap: String,
-    /// Reads by pages of this size (e.g. 128KiB) where a seek costs at
-    /// least a page's transfer (learnt; a fast disk never does); 0 (the
-    /// default) turns pages off.
-    #[arg(long, default_value = "0")]
-    page: String,
-    /// The share of the budget that pages may take from prefetching.
-    #[arg(long, default_value_t = 0.25, value_parser = in_range(0.0f32, 0.9))]
-    page_share: f32,
-    /// Stall deadline in ms (0: off, the paper's protocol, P_R waits for
-    /// every missing rep): Stage II reads only what it can finish this long
-    /// after the fetch command; the rest is drawn as its nearest resident
-    /// ancestor (counted as substituted and late) and read after the frame.
-    #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 60_000.0))]
-    stall_deadline: f32,
-    /// Occlusion culling (0: off): the share of the budget that P_R's
-    /// occluder store takes (P_I's reps get the rest), e.g. 0.05.
-    #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 0.5))]
-    occlusion: f32,
-    /// The quality governor: raise ε for the whole frame when the front
-    /// does not fit the footprint (or --max-tris), instead of substituting.
-    #[arg(long)]
-    governor: bool,
-    /// The governor's triangle target for the front (0: none).
-    #[arg(long, default_value_t = 0)]
-    max_tris: u64,
-    /// The governor's frame-time target in ms (0: none): the front's
-    /// triangles are held to what the measured drawing rate fits in it.
-    #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 60_000.0))]
-    max_frame_ms: f32,
-    /// Smooth LOD switches (0: off): a rep that replaces another fades in
-    /// over this many seconds while the other fades out, both resident.
-    #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 10.0))]
-    fade: f32,
-    /// Fidelity against full resolution (needs --renderer wgpu): walk the
-    /// path in core with every object at its finest rep, then at each of
-    /// these tolerances (comma-separated, px), and compare the sampled
-    /// frames (PSNR, pixels differing beyond one pixel); runs nothing else.
-    #[arg(long)]
-    fidelity: Option<String>,
+/// A comma-separated list of tolerances in pixels.
+fn tolerance_list(list: &str) -> Result<Vec<f32>> {
+    list.split(',')
+        .map(|t| in_range(0.01f32, 10_000.0)(t.trim()).map_err(anyhow::Error::msg))
+        .collect()
 }
 
 fn main() -> ExitCode {
@@ -193,6 +45,12 @@ fn main() -> ExitCode {
 
 fn run(a: Args) -> Result<()> {
     let colouring = Colouring::parse(&a.colouring).map_err(anyhow::Error::msg)?;
+    let anatomy_tolerances = a
+        .anatomy
+        .as_deref()
+        .map(tolerance_list)
+        .transpose()
+        .context("--anatomy")?;
     let gpu = match a.renderer.as_str() {
         "none" => None,
         "wgpu" => {
@@ -356,15 +214,28 @@ fn run(a: Args) -> Result<()> {
         println!("{text}");
         return Ok(());
     }
+    if let Some(tolerances) = anatomy_tolerances {
+        let scene = SceneFile::from_source(FileSource::from_file(file.try_clone()?)?)
+            .with_context(|| scene_name.clone())?;
+        let setup = anatomy::Setup {
+            skeleton: &skel,
+            scene: &scene,
+            poses: &poses,
+            params,
+            every: a.anatomy_every,
+            data_bytes,
+        };
+        let (table, csv) = anatomy::run(&setup, &tolerances).with_context(|| scene_name.clone())?;
+        write_bytes(&a.out.join("anatomy.md"), table.as_bytes())?;
+        write_bytes(&a.out.join("anatomy.csv"), csv.as_bytes())?;
+        println!("{table}");
+        return Ok(());
+    }
     if let Some(list) = &a.fidelity {
         let Some(ctx) = &gpu else {
             bail!("--fidelity needs --renderer wgpu");
         };
-        let tolerances: Vec<f32> = list
-            .split(',')
-            .map(|t| in_range(0.01f32, 10_000.0)(t.trim()).map_err(anyhow::Error::msg))
-            .collect::<Result<_>>()
-            .context("--fidelity")?;
+        let tolerances = tolerance_list(list).context("--fidelity")?;
         let source = || -> Result<Arc<dyn engine::io::ByteSource>> {
             scene_source(file.try_clone()?, None).with_context(|| scene_name.clone())
         };
