@@ -7,6 +7,7 @@ mod corrupt_gltf;
 mod draco;
 mod fade;
 mod formats;
+mod gpu_shot;
 mod ifc;
 mod layout;
 mod mt_scene;

@@ -13,10 +13,9 @@ use engine::mt::cache::CacheMode;
 use engine::render::NoneRenderer;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::{MemSource, RepKind, SceneFile, Skeleton};
-use engine_gpu::{GpuRenderer, RendererConfig};
-use glam::Vec3;
 use hlod_builder::build::{BuildParams, build_scene};
 
+use super::gpu_shot;
 use super::vdt_scene::{open, path};
 
 fn with_mt() -> BuildParams {
@@ -241,33 +240,13 @@ fn the_wgpu_renderer_draws_the_cut_close_to_full_resolution() {
     else {
         return;
     };
-    let (skel, _) = open(bytes);
-    let root = &skel.nodes[0];
-    let (min, max) = (Vec3::from(root.bbox_min), Vec3::from(root.bbox_max));
-    let c = (min + max) * 0.5;
-    let pose = Pose::look_at(
-        c + Vec3::new(0.3, 0.1, 1.0) * (max - min).length() * 0.9,
-        c,
-        50.0,
-    );
+    let pose = gpu_shot::overview(&open(bytes).0);
     let shoot = |tol: f32, mode: Mode| {
-        let (skel, src) = open(bytes);
         let p = RuntimeParams {
-            width_px: 320,
-            height_px: 240,
             tolerance_px: tol,
             ..params(mode, u64::MAX / 2, CacheMode::PC, POOL)
         };
-        let mut w = Walkthrough::start(skel, src, p).unwrap();
-        let mut r =
-            GpuRenderer::new(ctx.clone(), RendererConfig::headless(320, 240, 64 << 20)).unwrap();
-        let mut last = None;
-        for _ in 0..20 {
-            std::thread::sleep(std::time::Duration::from_millis(5));
-            r.capture_next_frame();
-            last = Some(w.frame(&pose, &mut r).unwrap());
-        }
-        (r.take_capture().unwrap(), last.unwrap())
+        gpu_shot::shoot(&ctx, open(bytes), p, &pose, 20)
     };
     let (full, m_full) = shoot(1e-6, Mode::Incore);
     assert_eq!(m_full.mt_tris, 69_451, "a tolerance of 0 draws the input");

@@ -264,7 +264,11 @@ fn equal_fronts_give_identical_images_and_gpu_memory_follows_the_budget() {
                 let d = a.diff(b, 0).unwrap();
                 // An ancestor in place of a rep: close to the in-core
                 // frame (identical when what it stands for is hidden).
-                assert!(d.psnr_db > 10.0, "{d:?}");
+                // Measured under lavapipe, the same over four runs: the
+                // two substituted frames are 46.6 and 15.9 dB from their
+                // in-core frames (a frame eight poses earlier is 11.9 and
+                // 15.6 dB from them), so 15 dB is the lowest less 0.9 dB.
+                assert!(d.psnr_db > 15.0, "budget {budget}, frame {i}: {d:?}");
             }
         }
     }

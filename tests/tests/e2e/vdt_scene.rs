@@ -11,9 +11,9 @@ use engine::metrics::FrameMetrics;
 use engine::render::NoneRenderer;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::{ByteSource, MemSource, RepKind, SceneFile, Skeleton};
-use engine_gpu::{GpuRenderer, RendererConfig};
-use glam::Vec3;
 use hlod_builder::build::{BuildParams, build_scene};
+
+use super::gpu_shot;
 
 /// The bunny with a tree (its two coarsest static LODs kept), and without.
 fn scenes() -> &'static (Vec<u8>, Vec<u8>) {
@@ -230,32 +230,9 @@ fn the_wgpu_renderer_draws_the_refined_cut_close_to_full_resolution() {
     else {
         return;
     };
-    let (skel, _) = open(with);
-    let root = &skel.nodes[0];
-    let (min, max) = (Vec3::from(root.bbox_min), Vec3::from(root.bbox_max));
-    let c = (min + max) * 0.5;
-    let pose = Pose::look_at(
-        c + Vec3::new(0.3, 0.1, 1.0) * (max - min).length() * 0.9,
-        c,
-        50.0,
-    );
+    let pose = gpu_shot::overview(&open(with).0);
     let shoot = |bytes: &[u8], mode: Mode| {
-        let (skel, src) = open(bytes);
-        let p = RuntimeParams {
-            width_px: 320,
-            height_px: 240,
-            ..params(mode, u64::MAX / 2)
-        };
-        let mut w = Walkthrough::start(skel, src, p).unwrap();
-        let mut r =
-            GpuRenderer::new(ctx.clone(), RendererConfig::headless(320, 240, 64 << 20)).unwrap();
-        let mut last = None;
-        for _ in 0..40 {
-            std::thread::sleep(std::time::Duration::from_millis(5));
-            r.capture_next_frame();
-            last = Some(w.frame(&pose, &mut r).unwrap());
-        }
-        (r.take_capture().unwrap(), last.unwrap())
+        gpu_shot::shoot(&ctx, open(bytes), params(mode, u64::MAX / 2), &pose, 40)
     };
     let (full, _) = shoot(plain, Mode::Incore);
     let (tree_in, m_in) = shoot(with, Mode::Incore);
