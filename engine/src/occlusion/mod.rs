@@ -139,7 +139,7 @@ impl OcclusionCuller {
     /// occluders and the front would balloon at every step; there the
     /// occluders are all of the last frame's visible reps, which the
     /// front's reps approximate to within the larger of the two
-    /// tolerances (see `ARCHITECTURE.md`, *Occlusion culling*).
+    /// tolerances (see `docs/design/runtime.md`, *Occlusion culling*).
     pub fn cull(
         &mut self,
         view: &View,
