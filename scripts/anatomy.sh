@@ -6,7 +6,9 @@
 # 1280x720, every 20th frame rasterised on the CPU. Tables go to out/anatomy/*/anatomy.md,
 # collected in out/anatomy/summary.md.
 # About 6 GiB of disk while the DE-size GLBs exist, 1.3 GiB peak RSS; about 25 minutes on 2 cores.
-# Usage: scripts/anatomy.sh [SCENES-DIR] [TOLERANCES]   (defaults: out/scenes 1,2,3)
+# WITH_777=1 adds the 777 class (300 frames per path; 14 GiB of disk while its input exists,
+# 2.8 GiB peak RSS building under a 4 GiB limit, about 13 minutes more).
+# Usage: [WITH_777=1] scripts/anatomy.sh [SCENES-DIR] [TOLERANCES]   (defaults: out/scenes 1,2,3)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 dir="${1:-out/scenes}"
@@ -33,18 +35,27 @@ plant pp1 1 1200 13000000
 plant pp2 2 1200 13000000
 plant de2 2 127000 82000000
 plant de3 3 127000 82000000
+if [ "${WITH_777:-0}" = 1 ] && [ ! -s "$dir/b777.hlod" ]; then
+  $B/hlod-build gen plant --seed 1 --objects 700000 --triangles 350000000 -o "$dir/b777.gltf"
+  $B/hlod-build build -q --memory-limit 4G "$dir/b777.gltf" -o "$dir/b777.hlod"
+  rm -f "$dir/b777.gltf" "$dir/b777.bin"
+fi
 tiled schep10 schependomlaan_subcontractors
 tiled duplex10 Ifc2x3_Duplex_Architecture
 summary="$out/summary.md"
 : > "$summary"
-for scene in pp1 pp2 de2 de3 schep10 duplex10; do
+scenes="pp1 pp2 de2 de3"
+[ "${WITH_777:-0}" = 1 ] && scenes="$scenes b777"
+for scene in $scenes schep10 duplex10; do
   case "$scene" in
     schep* | duplex*) kinds="interior flythrough" ;;
     *) kinds="flythrough approach-orbit" ;;
   esac
   for kind in $kinds; do
     o="$out/$scene-$kind"
-    $B/hlod-bench "$dir/$scene.hlod" --path-kind "$kind" --seed 1 --frames 600 \
+    frames=600
+    [ "$scene" = b777 ] && frames=300
+    $B/hlod-bench "$dir/$scene.hlod" --path-kind "$kind" --seed 1 --frames "$frames" \
       --anatomy "$tols" --anatomy-every 20 --out "$o" > /dev/null
     { echo "### $scene, $kind"; echo; cat "$o/anatomy.md"; echo; } >> "$summary"
   done
