@@ -382,10 +382,10 @@ mod tests {
 
     #[test]
     fn the_cache_folder_is_the_users_own() {
-        let home = |k: &str| (k == "HOME").then(|| "/home/u".into());
-        assert_eq!(cache_dir_in(None, home), Path::new("/home/u/.cache/hlod"));
-        let xdg = |k: &str| (k == "XDG_CACHE_HOME").then(|| "/x".into());
-        assert_eq!(cache_dir_in(None, xdg), Path::new("/x/hlod"));
+        let home = |k: &str| (k == "HOME").then(|| "home-u".into());
+        assert_eq!(cache_dir_in(None, home), Path::new("home-u/.cache/hlod"));
+        let xdg = |k: &str| (k == "XDG_CACHE_HOME").then(|| "xdg".into());
+        assert_eq!(cache_dir_in(None, xdg), Path::new("xdg/hlod"));
         // Without HOME or XDG_CACHE_HOME: a folder of this user's, never
         // one shared by all.
         let none = cache_dir_in(None, |_| None);

@@ -50,17 +50,45 @@ impl Projector {
         }
     }
 
+    /// The view projected.
+    pub fn view(&self) -> &View {
+        &self.view
+    }
+
     /// Camera space: x right, y up, `z` the depth along the view.
-    fn camera(&self, p: Vec3) -> Vec3 {
+    pub fn camera(&self, p: Vec3) -> Vec3 {
         let c = self.inv * (p - self.view.pose.position);
         Vec3::new(c.x, c.y, -c.z)
     }
 
     /// Pixel coordinates of a camera-space point in front of the eye.
-    fn screen(&self, c: Vec3) -> Vec2 {
+    pub fn screen(&self, c: Vec3) -> Vec2 {
         let (w, h) = (self.view.width_px as f32, self.view.height_px as f32);
         Vec2::new(0.5 * w + c.x / c.z * self.sx, 0.5 * h - c.y / c.z * self.sy)
     }
+}
+
+/// Clips a camera-space triangle ([`Projector::camera`]) to `z >= near`
+/// (Sutherland–Hodgman, one plane): the polygon's corners (0, 3 or 4) go to
+/// `out`, and their count is returned. Cut corners lie exactly on the plane.
+pub fn clip_near(c: &[Vec3; 3], near: f32, out: &mut [Vec3; 4]) -> usize {
+    let mut n = 0;
+    for i in 0..3 {
+        let (a, b) = (c[i], c[(i + 1) % 3]);
+        let (ia, ib) = (a.z >= near, b.z >= near);
+        if ia {
+            out[n] = a;
+            n += 1;
+        }
+        if ia != ib {
+            let s = (near - a.z) / (b.z - a.z);
+            let mut p = a.lerp(b, s);
+            p.z = near;
+            out[n] = p;
+            n += 1;
+        }
+    }
+    n
 }
 
 /// The x extent of triangle `s` between the heights `ya` and `yb`.
@@ -213,24 +241,8 @@ impl OcclusionBuffer {
             self.add_clipped(&c);
             return;
         }
-        // Clip against the near plane (Sutherland–Hodgman, one plane).
         let mut poly: [Vec3; 4] = [Vec3::ZERO; 4];
-        let mut n = 0;
-        for i in 0..3 {
-            let (a, b) = (c[i], c[(i + 1) % 3]);
-            let (ia, ib) = (a.z >= near, b.z >= near);
-            if ia {
-                poly[n] = a;
-                n += 1;
-            }
-            if ia != ib {
-                let s = (near - a.z) / (b.z - a.z);
-                let mut p = a.lerp(b, s);
-                p.z = near;
-                poly[n] = p;
-                n += 1;
-            }
-        }
+        let n = clip_near(&c, near, &mut poly);
         if n >= 3 {
             self.add_clipped(&[poly[0], poly[1], poly[2]]);
         }

@@ -102,7 +102,9 @@ fn run(a: Args) -> Result<()> {
     } else {
         None
     };
-    drop(scene);
+    // Only the anatomy reads reps through it; otherwise the runs open
+    // their own sources and the skeleton is held once.
+    let scene = anatomy_tolerances.is_some().then_some(scene);
     // Percentages are of the scene in core (compressed reps expanded, and
     // room to load the largest): at 100% every rep can be resident.
     let data_bytes = skel.in_core_bytes();
@@ -215,11 +217,10 @@ fn run(a: Args) -> Result<()> {
         return Ok(());
     }
     if let Some(tolerances) = anatomy_tolerances {
-        let scene = SceneFile::from_source(FileSource::from_file(file.try_clone()?)?)
-            .with_context(|| scene_name.clone())?;
+        let scene = scene.as_ref().expect("kept for the anatomy");
         let setup = anatomy::Setup {
             skeleton: &skel,
-            scene: &scene,
+            scene,
             poses: &poses,
             params,
             every: a.anatomy_every,

@@ -2,13 +2,15 @@
 //! triangle is rasterised at the view's full resolution (one sample at
 //! each pixel centre, nearest wins), so that the triangles that own a
 //! pixel at the end are the visible ones, and those that covered samples
-//! but own none were hidden. Triangles are clipped at the near plane in
-//! camera space, projected as `Pose::project` does, and depth is compared
-//! as `1/z`, which is linear on the screen.
+//! but own none were hidden. Triangles are clipped at the near plane and
+//! projected as the occlusion culler does (`engine::occlusion`'s
+//! `Projector` and `clip_near`); depth is compared as `1/z`, which is
+//! linear on the screen.
 
-use glam::{Mat3, Vec3};
+use glam::Vec3;
 
 use engine::camera::View;
+use engine::occlusion::{Projector, clip_near};
 
 /// No triangle owns the pixel.
 pub const NONE: u32 = u32::MAX;
@@ -28,11 +30,7 @@ pub struct Drawn {
 pub struct IdBuffer {
     w: u32,
     h: u32,
-    eye: Vec3,
-    inv: Mat3,
-    near: f32,
-    sx: f32,
-    sy: f32,
+    proj: Projector,
     inv_z: Vec<f32>,
     owner: Vec<u32>,
 }
@@ -40,16 +38,10 @@ pub struct IdBuffer {
 impl IdBuffer {
     pub fn new(view: &View) -> Self {
         let (w, h) = (view.width_px.max(1), view.height_px.max(1));
-        let tan = (0.5 * view.pose.fov_y_deg.to_radians()).tan();
-        let (wf, hf) = (w as f32, h as f32);
         Self {
             w,
             h,
-            eye: view.pose.position,
-            inv: Mat3::from_quat(view.pose.rotation.inverse()),
-            near: view.near.max(1e-6),
-            sx: 0.5 * wf / (tan * wf / hf),
-            sy: 0.5 * hf / tan,
+            proj: Projector::new(view),
             inv_z: vec![0.0; (w * h) as usize],
             owner: vec![NONE; (w * h) as usize],
         }
@@ -62,27 +54,17 @@ impl IdBuffer {
 
     /// Rasterises the scene triangle `tri` as `id`.
     pub fn triangle(&mut self, id: u32, tri: [Vec3; 3]) -> Drawn {
-        let cam = tri.map(|p| {
-            let c = self.inv * (p - self.eye);
-            Vec3::new(c.x, c.y, -c.z)
-        });
+        let cam = tri.map(|p| self.proj.camera(p));
         let mut poly = [Vec3::ZERO; 4];
-        let n = clip_near(&cam, self.near, &mut poly);
+        let n = clip_near(&cam, self.proj.view().near.max(1e-6), &mut poly);
         let mut drawn = Drawn::default();
         if n < 3 {
             return drawn;
         }
-        let s: Vec<(f32, f32, f32)> = poly[..n]
-            .iter()
-            .map(|c| {
-                let iz = 1.0 / c.z;
-                (
-                    0.5 * self.w as f32 + c.x * iz * self.sx,
-                    0.5 * self.h as f32 - c.y * iz * self.sy,
-                    iz,
-                )
-            })
-            .collect();
+        let s = poly.map(|c| {
+            let p = self.proj.screen(c);
+            (p.x, p.y, 1.0 / c.z)
+        });
         for k in 1..n - 1 {
             let d = self.screen_triangle(id, [s[0], s[k], s[k + 1]]);
             drawn.samples += d.samples;
@@ -171,26 +153,6 @@ impl IdBuffer {
         }
         d
     }
-}
-
-/// Clips a camera-space triangle (z the depth) to `z >= near`; returns the
-/// polygon's corner count (0, 3 or 4) in `out`.
-fn clip_near(t: &[Vec3; 3], near: f32, out: &mut [Vec3; 4]) -> usize {
-    let mut n = 0;
-    for i in 0..3 {
-        let (p, q) = (t[i], t[(i + 1) % 3]);
-        let (pin, qin) = (p.z >= near, q.z >= near);
-        if pin {
-            out[n] = p;
-            n += 1;
-        }
-        if pin != qin {
-            let s = (near - p.z) / (q.z - p.z);
-            out[n] = p + (q - p) * s;
-            n += 1;
-        }
-    }
-    n
 }
 
 #[cfg(test)]
