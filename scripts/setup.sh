@@ -22,6 +22,11 @@ command -v npm >/dev/null 2>&1 || need+=(npm)
 # A virtual display for the viewer's window test.
 command -v xvfb-run >/dev/null 2>&1 || need+=(xvfb)
 command -v xauth >/dev/null 2>&1 || need+=(xauth)
+# A single-node Slurm cluster with job accounting, started by the cluster-build
+# test (scripts/slurm-local.sh): Slurm, munge, slurmdbd and MariaDB for it.
+for p in slurm-wlm slurm-client munge slurmdbd mariadb-server; do
+  has_pkg "$p" || need+=("$p")
+done
 
 if [ ${#need[@]} -gt 0 ]; then
   echo "setup: installing ${need[*]}"
@@ -53,4 +58,17 @@ if ! [ -x "$tools/node_modules/.bin/gltfpack" ] || ! [ -x "$tools/node_modules/.
   echo "setup: installing gltfpack 1.3.0 and gltf-transform 4.5.1 in target/npm-tools"
   mkdir -p "$tools"
   npm install --silent --no-audit --no-fund --prefix "$tools" gltfpack@1.3.0 @gltf-transform/cli@4.5.1
+fi
+
+# An S3-compatible object store for the publishing test (hlod-builder/tests/publish.rs)
+# and boto3 to check it with an independent client: moto's server in
+# target/moto-venv, pinned.
+MOTO=5.2.6
+moto="$(cd "$(dirname "$0")/.." && pwd)/target/moto-venv"
+if ! "$moto/bin/python" -c "import moto, boto3, sys; sys.exit(moto.__version__ != '$MOTO')" >/dev/null 2>&1 ||
+  ! [ -x "$moto/bin/moto_server" ]; then
+  echo "setup: installing moto[server] $MOTO in target/moto-venv"
+  rm -rf "$moto"
+  python3 -m venv "$moto"
+  "$moto/bin/python" -m pip install -q --disable-pip-version-check "moto[server]==$MOTO"
 fi

@@ -30,6 +30,10 @@ fi
 # here is a failure, not a skip (on other machines such tests are skipped
 # and listed in target/test-skips.txt).
 export HLOD_REQUIRE_GPU=1
+# As root, setup.sh installed Slurm: the cluster-build test must run, not skip.
+if [ "$(id -u)" = 0 ]; then export HLOD_REQUIRE_SLURM=1; fi
+# setup.sh installed moto's S3 server: the publishing test must run too.
+export HLOD_REQUIRE_MOTO=1
 mkdir -p target && rm -f target/test-skips.txt
 cargo test --workspace
 if [ -s target/test-skips.txt ]; then

@@ -2,6 +2,7 @@
 
 mod build_cmd;
 mod mt_cmd;
+mod publish_cmd;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -48,6 +49,10 @@ enum Cmd {
         #[arg(long, default_value = "compressed")]
         reps: String,
     },
+    /// Upload a scene file to S3-compatible object storage (s3://BUCKET/KEY)
+    /// as one multipart upload, every part checked by MD5 before the object
+    /// appears; credentials and endpoint from the AWS_* environment variables.
+    Publish(publish_cmd::PublishArgs),
     /// Merge the shard files of a sharded build (`build --shard I/N`, one
     /// file per shard, all N) into the scene file, with the same build options.
     Merge {
@@ -167,6 +172,7 @@ fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
         Cmd::Build(a) => build_cmd::build(a),
         Cmd::Merge { build, shards } => build_cmd::merge(build, &shards),
+        Cmd::Publish(a) => publish_cmd::publish(&a),
         Cmd::Info {
             file,
             no_verify_data,

@@ -18,6 +18,7 @@ use std::str::FromStr;
 pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
     // A command never writes a file it read (engine::infile).
     engine::infile::track_inputs();
+    use tracing_subscriber::Layer as _;
     use tracing_subscriber::layer::SubscriberExt as _;
     // Set directly, not with `SubscriberInitExt::init`: that also routes
     // the `log` crate's records (wgpu's, winit's: thousands) here whenever
@@ -29,7 +30,10 @@ pub fn main_with(body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
                 .with_writer(std::io::stderr)
                 .with_target(false)
                 .without_time()
-                .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr())),
+                .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
+                // Information, warnings and errors: not the HTTP stack's
+                // debug and trace events (object_store, reqwest, hyper).
+                .with_filter(tracing_subscriber::filter::LevelFilter::INFO),
         )
         .with(ErrorCount);
     let _ = tracing::subscriber::set_global_default(subscriber);
