@@ -505,6 +505,16 @@ impl CsvStream {
     }
 }
 
+/// The budget column: in-core runs hold every rep, whatever footprint the
+/// out-of-core runs beside them were given.
+pub fn budget_cell(r: &Summary) -> String {
+    if r.mode == "incore" {
+        "— (all)".to_string()
+    } else {
+        format!("{:.2}", r.budget_bytes as f64 / 1048576.0)
+    }
+}
+
 /// A Markdown table of the summaries' view-dependence-tree figures.
 pub fn vdt_table(rows: &[Summary]) -> String {
     let mut s = String::from(
@@ -514,9 +524,9 @@ pub fn vdt_table(rows: &[Summary]) -> String {
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {:.2} | {} | {:.1} | {:.0} | {:.2} | {:.3} | {} | {:.2} |",
+            "| {} | {} | {} | {:.1} | {:.0} | {:.2} | {:.3} | {} | {:.2} |",
             r.mode,
-            mib(r.budget_bytes),
+            budget_cell(r),
             r.vdt_frames,
             r.mean_adapt,
             r.mean_vdt_tris,
@@ -538,7 +548,7 @@ pub fn summary_table(rows: &[Summary]) -> String {
     for r in rows {
         let _ = writeln!(
             s,
-            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.3} |",
+            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.2} | {:.2} | {:.2} | {} | {} | {:.3} |",
             r.mode,
             r.frames,
             r.mean_ms,
@@ -549,7 +559,7 @@ pub fn summary_table(rows: &[Summary]) -> String {
             mib(r.stage2_bytes),
             mib(r.prefetch_bytes),
             mib(r.max_resident_bytes),
-            mib(r.budget_bytes),
+            budget_cell(r),
             r.substituted,
             r.mean_front_ms
         );

@@ -106,7 +106,7 @@ fn check_dir_meta(meta: &std::fs::Metadata) -> Result<(), String> {
 /// not a regular file of the user's, not a scene, built for another key,
 /// or a rep failing its checksum. The entry is read without being taken as
 /// an input of the process, so that a rebuild may replace it.
-pub fn check_entry(scene: &Path, key: &[u8; 16]) -> Result<(), String> {
+pub fn check_entry(scene: &Path, key: &[u8; 16]) -> Result<engine::SceneMeta, String> {
     let meta = std::fs::symlink_metadata(scene).map_err(|e| e.to_string())?;
     if meta.file_type().is_symlink() || !meta.is_file() {
         return Err(format!("is {}", engine::infile::kind_of(&meta)));
@@ -125,8 +125,12 @@ pub fn check_entry(scene: &Path, key: &[u8; 16]) -> Result<(), String> {
 
 /// The checks of [`check_entry`] on an entry's bytes: a scene, built for
 /// `key` (its header records it), every rep passing its checksum (the fuzz
-/// target's entry: `tests/fuzz/fuzz_targets/cache_entry.rs`).
-pub fn check_entry_source<S: engine::ByteSource>(src: S, key: &[u8; 16]) -> Result<(), String> {
+/// target's entry: `tests/fuzz/fuzz_targets/cache_entry.rs`). Returns the
+/// scene's description.
+pub fn check_entry_source<S: engine::ByteSource>(
+    src: S,
+    key: &[u8; 16],
+) -> Result<engine::SceneMeta, String> {
     let opened = engine::SceneFile::from_source(src).map_err(|e| e.to_string())?;
     let found = opened.header().source_key;
     if &found != key {
@@ -139,7 +143,8 @@ pub fn check_entry_source<S: engine::ByteSource>(src: S, key: &[u8; 16]) -> Resu
             )
         });
     }
-    opened.verify_all_reps().map_err(|e| e.to_string())
+    opened.verify_all_reps().map_err(|e| e.to_string())?;
+    Ok(opened.meta())
 }
 
 /// Lower-case hex digits of `bytes`.
@@ -216,11 +221,18 @@ pub fn entry(input: &Path, params: &BuildParams, dir: &Path) -> Result<PathBuf, 
     Ok(dir.join(format!("{safe}-{}.hlod", key(input, params)?)))
 }
 
-/// A cached scene and whether it was already there.
+/// A cached scene, whether it was already there, and what its build left
+/// out ([`BuildParams::ifc_voids`]).
 #[derive(Clone, Debug)]
 pub struct Cached {
     pub scene: PathBuf,
     pub hit: bool,
+    /// Triangles of the IFC opening voids and spaces left out (recorded in
+    /// the scene file).
+    pub hidden_triangles: u64,
+    /// How many objects those were: known when the scene was built now,
+    /// not recorded in the file.
+    pub hidden_objects: Option<u64>,
 }
 
 /// The scene of `input` from the cache in `dir`, built first when absent
@@ -240,7 +252,14 @@ pub fn cached_scene(
         _ => {
             report("checking the cached scene", 0, 0);
             match check_entry(&scene, &key) {
-                Ok(()) => return Ok(Cached { scene, hit: true }),
+                Ok(meta) => {
+                    return Ok(Cached {
+                        scene,
+                        hit: true,
+                        hidden_triangles: meta.hidden_triangles,
+                        hidden_objects: None,
+                    });
+                }
                 Err(why) => {
                     tracing::warn!("{}: cache entry {why}; rebuilding it", scene.display());
                     // A link or another file type is removed, never
@@ -256,8 +275,13 @@ pub fn cached_scene(
             }
         }
     }
-    build_file_reporting(input, &scene, params, false, report)?;
-    Ok(Cached { scene, hit: false })
+    let stats = build_file_reporting(input, &scene, params, false, report)?;
+    Ok(Cached {
+        scene,
+        hit: false,
+        hidden_triangles: stats.hidden_triangles,
+        hidden_objects: Some(stats.hidden_objects),
+    })
 }
 
 #[cfg(test)]

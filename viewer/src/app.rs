@@ -141,6 +141,7 @@ impl App {
                     .map(|p| p.display().to_string())
                     .unwrap_or_default(),
                 frozen: false,
+                panel_frac: 0.0,
             },
             args,
             settings,
@@ -217,6 +218,17 @@ impl App {
                     },
                     cached.scene.display()
                 );
+                if cached.hidden_triangles > 0 {
+                    let objects = cached
+                        .hidden_objects
+                        .map_or_else(String::new, |n| format!("{n} objects, "));
+                    println!(
+                        "{}: left out the IFC opening voids and spaces ({objects}{} triangles): \
+                         they are not drawn; `hlod-build build --ifc-voids` keeps them",
+                        input.display(),
+                        cached.hidden_triangles
+                    );
+                }
                 self.open_scene(&cached.scene, Some(&input));
             }
             Err(e) => {
@@ -245,7 +257,14 @@ impl App {
         ) {
             Ok(sess) => {
                 let (min, max) = sess.bounds();
-                self.controls.frame_all(min, max);
+                let aspect = size.0 as f32 / size.1.max(1) as f32;
+                // Before the panel is first drawn: its default place and
+                // width (8 + 340 points and its frame).
+                let panel = match self.ui.panel_frac {
+                    0.0 => 360.0 * gfx.window.scale_factor() as f32 / size.0.max(1) as f32,
+                    f => f,
+                };
+                self.controls.frame_all_beside(min, max, aspect, panel);
                 if let Some((p, _)) = &self.play
                     && let Some(first) = p.first()
                 {
@@ -303,9 +322,11 @@ impl App {
     }
 
     fn frame_all(&mut self) {
-        if let Some(s) = &self.session {
+        if let (Some(s), Some(gfx)) = (&self.session, &self.gfx) {
             let (min, max) = s.bounds();
-            self.controls.frame_all(min, max);
+            let aspect = gfx.config.width as f32 / gfx.config.height.max(1) as f32;
+            self.controls
+                .frame_all_beside(min, max, aspect, self.ui.panel_frac);
         }
     }
 

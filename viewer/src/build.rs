@@ -49,14 +49,17 @@ impl Building {
     pub fn start(input: &Path, dir: Option<&Path>) -> Self {
         let progress: Progress = Arc::new(Mutex::new(("starting".into(), 0, 0)));
         let (p, inp, dir) = (progress.clone(), input.to_path_buf(), cache_dir(dir));
-        tracing::info!(
-            "building {} into the cache at {}",
-            input.display(),
-            dir.display()
-        );
         let handle = std::thread::spawn(move || {
             let t = Instant::now();
+            // Said once the cache has no usable entry and the build starts,
+            // not on a hit.
+            let said = std::sync::atomic::AtomicBool::new(false);
+            let (name, place) = (inp.display().to_string(), dir.display().to_string());
             let report = move |stage: &str, done: u64, total: u64| {
+                let looking = matches!(stage, "hashing the model" | "checking the cached scene");
+                if !looking && !said.swap(true, std::sync::atomic::Ordering::Relaxed) {
+                    tracing::info!("building {name} into the cache at {place}");
+                }
                 if let Ok(mut g) = p.lock() {
                     *g = (stage.to_string(), done, total);
                 }

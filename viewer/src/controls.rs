@@ -62,13 +62,51 @@ impl Controls {
 
     /// Places the camera so that the whole box is in view.
     pub fn frame_all(&mut self, min: Vec3, max: Vec3) {
+        self.frame_all_beside(min, max, 16.0 / 9.0, 0.0);
+    }
+
+    /// Places the camera so that the whole box is in view in a viewport of
+    /// `aspect` (width / height) whose left `panel` fraction an overlay
+    /// covers: the box's bounding sphere fits the height and the width right
+    /// of the panel, centred there. The camera looks (and orbits) at a point
+    /// beside the box's centre, so that the centre shows in the middle of the
+    /// free part. A panel over 60% of the width is not avoided.
+    pub fn frame_all_beside(&mut self, min: Vec3, max: Vec3, aspect: f32, panel: f32) {
         let diag = (max - min).length().max(1e-3);
         self.scene_diag = diag;
-        self.target = (min + max) * 0.5;
+        let centre = (min + max) * 0.5;
+        let radius = 0.5 * diag;
         let half_fov = (0.5 * self.fov_y_deg).to_radians();
-        self.distance = 0.5 * diag / half_fov.sin();
+        let f = if (0.0..=0.6).contains(&panel) {
+            panel
+        } else {
+            0.0
+        };
+        let tan_x = half_fov.tan() * aspect.max(1e-3);
+        // The distance at which the sphere, its centre at NDC x = f, spans
+        // at most [2f - 1, 1] across and its angular radius fits the height.
+        let fits = |d: f32| {
+            let off = d * tan_x * f;
+            let (centre_angle, l) = (off.atan2(d), (d * d + off * off).sqrt());
+            let spread = (radius / l).min(1.0).asin();
+            (centre_angle + spread).tan() <= tan_x
+                && (centre_angle - spread).tan() >= tan_x * (2.0 * f - 1.0)
+                && spread <= half_fov
+                && centre_angle + spread < std::f32::consts::FRAC_PI_2
+        };
+        let half_free = (tan_x * (1.0 - f)).atan();
+        let mut d = radius / half_fov.sin().min(half_free.sin()).max(1e-3);
+        for _ in 0..200 {
+            if fits(d) {
+                break;
+            }
+            d *= 1.02;
+        }
+        self.distance = d;
         self.yaw = 35f32.to_radians();
         self.pitch = -25f32.to_radians();
+        let right = self.forward().cross(Vec3::Y).normalize();
+        self.target = centre - right * (self.distance * tan_x * f);
         self.position = self.target - self.forward() * self.distance;
         self.speed = diag / 20.0;
     }
@@ -168,6 +206,46 @@ mod tests {
         let mut d = c;
         d.set_pose(&p);
         assert!((d.yaw - c.yaw).abs() < 1e-4 && (d.pitch - c.pitch).abs() < 1e-4);
+    }
+
+    /// Every corner of the box projects inside the viewport and right of
+    /// the panel, for wide and narrow windows.
+    #[test]
+    fn framing_keeps_the_box_clear_of_the_panel() {
+        let (min, max) = (Vec3::new(-40.0, 0.0, -10.0), Vec3::new(40.0, 6.0, 10.0));
+        for (aspect, panel) in [
+            (16.0 / 9.0, 0.47),
+            (16.0 / 9.0, 0.27),
+            (1.0, 0.3),
+            (2.5, 0.15),
+            (0.6, 0.0),
+        ] {
+            let mut c = Controls::new(min, max);
+            c.frame_all_beside(min, max, aspect, panel);
+            let p = c.pose();
+            let (f, up) = (p.forward(), Vec3::Y);
+            let right = f.cross(up).normalize();
+            let up = right.cross(f);
+            let t = (0.5 * p.fov_y_deg).to_radians().tan();
+            for i in 0..8 {
+                let corner = Vec3::new(
+                    if i & 1 == 0 { min.x } else { max.x },
+                    if i & 2 == 0 { min.y } else { max.y },
+                    if i & 4 == 0 { min.z } else { max.z },
+                );
+                let v = corner - p.position;
+                let z = v.dot(f);
+                let (x, y) = (v.dot(right) / (z * t * aspect), v.dot(up) / (z * t));
+                assert!(
+                    z > 0.0 && y.abs() <= 1.0,
+                    "{aspect} {panel}: corner {i} at y {y}"
+                );
+                assert!(
+                    x >= -1.0 + 2.0 * panel && x <= 1.0,
+                    "{aspect} {panel}: corner {i} at x {x}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -27,6 +27,9 @@ pub struct UiState {
     pub open_text: String,
     pub path_text: String,
     pub frozen: bool,
+    /// The fraction of the window's width, from the left, that the main
+    /// panel covers (as last drawn): framing keeps the model clear of it.
+    pub panel_frac: f32,
 }
 
 /// What the user asked for this frame.
@@ -90,7 +93,7 @@ pub fn draw(
 ) -> Actions {
     let mut act = Actions::default();
     notices(ctx, v, &mut act);
-    egui::Window::new("hlod-view")
+    let panel = egui::Window::new("hlod-view")
         .default_pos([8.0, 8.0])
         .default_width(340.0)
         .show(ctx, |ui| {
@@ -234,6 +237,12 @@ pub fn draw(
                 ui.label(format!("playing frame {i} of {n}"));
             }
         });
+    if let Some(r) = panel {
+        let width = ctx.content_rect().width();
+        if width > 0.0 {
+            st.panel_frac = (r.response.rect.max.x / width).clamp(0.0, 1.0);
+        }
+    }
     act
 }
 

@@ -228,6 +228,10 @@ fn opens_a_glb_directly_builds_it_once_and_shows_it() {
     );
     assert!(out.status.success(), "{se}");
     assert!(so.contains("built into"), "{so}");
+    assert!(se.contains("into the cache at"), "a build says so: {se}");
+    // What the build left out is said, as `hlod-build` says it.
+    let left_out = "left out the IFC opening voids and spaces (24 objects, 856 triangles)";
+    assert!(so.contains(left_out), "{so}");
     assert!(so.contains("first complete frame"), "{so}");
     let img = RgbaImage::load_png(&d.join("first.png")).unwrap();
     std::fs::copy(d.join("first.png"), artefacts().join("viewer-open-glb.png")).unwrap();
@@ -236,9 +240,21 @@ fn opens_a_glb_directly_builds_it_once_and_shows_it() {
     // The second open is a cache hit, and shows the same.
     let a2 = args("second.png");
     let out = view(d, &a2.iter().map(String::as_str).collect::<Vec<_>>());
-    let so = String::from_utf8_lossy(&out.stdout);
+    let (so, se) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
     assert!(out.status.success());
     assert!(so.contains("cached scene"), "{so}");
+    assert!(
+        !se.contains("into the cache at"),
+        "a cache hit builds nothing: {se}"
+    );
+    // The file records the triangles left out, not how many objects.
+    assert!(
+        so.contains("left out the IFC opening voids and spaces (856 triangles)"),
+        "{so}"
+    );
     assert_eq!(std::fs::read_dir(d.join("cache")).unwrap().count(), 1);
     let cov2 = scene_coverage(&RgbaImage::load_png(&d.join("second.png")).unwrap());
     assert!((cov2 - cov).abs() < 0.01, "{cov} vs {cov2}");
@@ -288,7 +304,8 @@ fn picks_the_element_at_a_known_pixel_and_shows_its_name() {
     let d = dir.path();
     let model = fzk_haus();
     let mut names = Vec::new();
-    for px in ["400,225", "330,260", "470,200"] {
+    // Pixels on the house, which framing places right of the main panel.
+    for px in ["585,205", "525,265", "630,285"] {
         let out = view(
             d,
             &[

@@ -453,3 +453,44 @@ fn mt_bench_draws_the_papers_figures_and_refuses_nonsense() {
     );
     assert!(!d.join("x").exists(), "nothing written");
 }
+
+/// A footprint smaller than the path's fronts is said, on stderr and in
+/// `summary.md` (out of core then draws ancestors, and only looks faster);
+/// one that holds every front is not. The in-core row shows no budget.
+#[test]
+fn a_footprint_below_the_fronts_is_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let glb = d.join("p.glb");
+    let p = hlod_builder::scenegen::plant::PlantParams {
+        seed: 2,
+        objects: 300,
+        triangles: 150_000,
+    };
+    hlod_builder::scenegen::plant::write_plant(&p, &glb).unwrap();
+    let params = hlod_builder::build::BuildParams::default();
+    hlod_builder::build::build_file(&glb, &d.join("s.hlod"), &params, false).unwrap();
+    let run = |budget: &str, out: &str| {
+        let o = bench(
+            d,
+            &[
+                "s.hlod", "--frames", "30", "--fps", "0", "--budget", budget, "--out", out,
+            ],
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let table = std::fs::read_to_string(d.join(out).join("summary.md")).unwrap();
+        (String::from_utf8_lossy(&o.stderr).into_owned(), table)
+    };
+    let (err, table) = run("3%", "short");
+    assert!(err.contains("warning: nopre: the footprint of"), "{err}");
+    assert!(err.contains("draws every front as itself"), "{err}");
+    assert!(
+        table.contains("**Warning:** pre: the footprint of"),
+        "{table}"
+    );
+    let incore = table.lines().find(|l| l.starts_with("| incore |")).unwrap();
+    assert!(incore.contains("| — (all) |"), "{incore}");
+    let (err, table) = run("100%", "ample");
+    assert!(!err.contains("warning: "), "{err}");
+    assert!(!table.contains("Warning"), "{table}");
+}

@@ -11,6 +11,7 @@ mod mt_table;
 mod oracle;
 mod plots;
 mod raster;
+mod short;
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -31,6 +32,7 @@ use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path
 use engine_cli::{in_range, parse_size, size_or_off};
 use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use glam::Vec3;
+use short::ShortFootprint;
 
 /// A comma-separated list of tolerances in pixels.
 fn tolerance_list(list: &str) -> Result<Vec<f32>> {
@@ -268,6 +270,7 @@ fn run(a: Args) -> Result<()> {
     let mut reference: Vec<(u32, RgbaImage)> = Vec::new();
     let mut quality = String::from("mode,budget_bytes,frame,psnr_db,substituted\n");
     let mut quality_rows: Vec<String> = Vec::new();
+    let mut warnings = String::new();
     let mut startup =
         String::from("\n| run | start-up ms | start-up MiB read |\n|---|---:|---:|\n");
     let runs = budgets
@@ -353,10 +356,12 @@ fn run(a: Args) -> Result<()> {
         let mut csv = CsvStream::create(&a.out.join(format!("{tag}.csv")))?;
         let mut rec = Recorder::default();
         let mut i = 0u32;
+        let mut short = ShortFootprint::default();
         run_path_each(&mut walk, &poses, renderer, a.fps, |mut f| {
             f.frame = i; // path frames, after the start-up
             i += 1;
             over += usize::from(over_budget(&f));
+            short.push(&f);
             rec.push(&f);
             csv.push(&f)
         })?;
@@ -402,11 +407,18 @@ fn run(a: Args) -> Result<()> {
                 quality_rows.push(quality_row(&tag, &q));
             }
         }
+        if mode != Mode::Incore
+            && let Some(w) = short.warning(&tag, budget, a.tolerance)
+        {
+            eprintln!("warning: {w}");
+            warnings.push_str(&format!("\n**Warning:** {w}\n"));
+        }
         rows.push(rec.summary(period_ms));
         eprintln!("{tag}: done ({})", memory_note());
         done.push((mode, budget, rec.into_trace()));
     }
     let mut table = summary_table(&rows);
+    table.push_str(&warnings);
     if skel.reps.iter().any(|r| r.is_vdt()) {
         table.push_str(&format!("\nView-dependence trees:\n\n{}", vdt_table(&rows)));
     }

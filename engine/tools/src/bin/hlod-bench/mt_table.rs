@@ -19,9 +19,9 @@ pub fn mt_table(rows: &[Summary]) -> String {
         let k = r.vdt_frames.max(1) as f64;
         let _ = writeln!(
             s,
-            "| {} | {:.2} | {} | {:.0} | {:.1} | {:.2} | {:.3} | {} | {} | {:.2} | {} | {:.2} |",
+            "| {} | {} | {} | {:.0} | {:.1} | {:.2} | {:.3} | {} | {} | {:.2} | {} | {:.2} |",
             r.mode,
-            mib(r.budget_bytes),
+            engine::metrics::budget_cell(r),
             r.vdt_frames,
             t.mt_tris as f64 / k,
             t.mt_adapt as f64 / k,
