@@ -208,26 +208,8 @@ impl App {
         let input = b.input.clone();
         match b.join() {
             Ok((cached, secs)) => {
-                println!(
-                    "{}: {} {} in {secs:.2} s",
-                    input.display(),
-                    if cached.hit {
-                        "cached scene"
-                    } else {
-                        "built into"
-                    },
-                    cached.scene.display()
-                );
-                if cached.hidden_triangles > 0 {
-                    let objects = cached
-                        .hidden_objects
-                        .map_or_else(String::new, |n| format!("{n} objects, "));
-                    println!(
-                        "{}: left out the IFC opening voids and spaces ({objects}{} triangles): \
-                         they are not drawn; `hlod-build build --ifc-voids` keeps them",
-                        input.display(),
-                        cached.hidden_triangles
-                    );
+                for line in crate::build::opened_lines(&input, &cached, secs) {
+                    println!("{line}");
                 }
                 self.open_scene(&cached.scene, Some(&input));
             }

@@ -117,3 +117,31 @@ impl Building {
         )
     }
 }
+
+/// What the viewer prints once a model's scene is ready: where it came from
+/// (the cache, or built now) and, as `hlod-build` says it, what the build left
+/// out.
+pub fn opened_lines(input: &Path, cached: &Cached, secs: f64) -> Vec<String> {
+    let how = if cached.hit {
+        "cached scene"
+    } else {
+        "built into"
+    };
+    let mut lines = vec![format!(
+        "{}: {how} {} in {secs:.2} s",
+        input.display(),
+        cached.scene.display()
+    )];
+    if cached.hidden_triangles > 0 {
+        let objects = cached
+            .hidden_objects
+            .map_or_else(String::new, |n| format!("{n} objects, "));
+        lines.push(format!(
+            "{}: left out the IFC opening voids and spaces ({objects}{} triangles): they are not \
+             drawn; `hlod-build build --ifc-voids` keeps them",
+            input.display(),
+            cached.hidden_triangles
+        ));
+    }
+    lines
+}
