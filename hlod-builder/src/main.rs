@@ -2,6 +2,7 @@
 
 mod build_cmd;
 mod mt_cmd;
+#[cfg(feature = "publish")]
 mod publish_cmd;
 
 use std::path::PathBuf;
@@ -52,6 +53,7 @@ enum Cmd {
     /// Upload a scene file to S3-compatible object storage (s3://BUCKET/KEY)
     /// as one multipart upload, every part checked by MD5 before the object
     /// appears; credentials and endpoint from the AWS_* environment variables.
+    #[cfg(feature = "publish")]
     Publish(publish_cmd::PublishArgs),
     /// Merge the shard files of a sharded build (`build --shard I/N`, one
     /// file per shard, all N) into the scene file, with the same build options.
@@ -172,6 +174,7 @@ fn run(cli: Cli) -> Result<()> {
     match cli.cmd {
         Cmd::Build(a) => build_cmd::build(a),
         Cmd::Merge { build, shards } => build_cmd::merge(build, &shards),
+        #[cfg(feature = "publish")]
         Cmd::Publish(a) => publish_cmd::publish(&a),
         Cmd::Info {
             file,

@@ -11,6 +11,8 @@
 //! `target/test-skips.txt`; with `HLOD_REQUIRE_MOTO` set (as `scripts/test.sh`
 //! sets it) it fails instead.
 
+#![cfg(feature = "publish")]
+
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
