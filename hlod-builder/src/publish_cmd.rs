@@ -196,7 +196,7 @@ async fn upload_parts(
         let (store, path, id) = (Arc::clone(store), path.clone(), id.to_string());
         running.spawn(async move {
             let pid = store
-                .put_part(&path, &id.clone(), i as usize, PutPayload::from(buf))
+                .put_part(&path, &id, i as usize, PutPayload::from(buf))
                 .await
                 .with_context(|| format!("part {} of {parts}", i + 1))?;
             if bare(&pid.content_id) != hex(&md5) {

@@ -32,7 +32,6 @@ use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path
 use engine_cli::{in_range, parse_size, size_or_off};
 use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use glam::Vec3;
-use short::ShortFootprint;
 
 /// A comma-separated list of tolerances in pixels.
 fn tolerance_list(list: &str) -> Result<Vec<f32>> {
@@ -356,12 +355,10 @@ fn run(a: Args) -> Result<()> {
         let mut csv = CsvStream::create(&a.out.join(format!("{tag}.csv")))?;
         let mut rec = Recorder::default();
         let mut i = 0u32;
-        let mut short = ShortFootprint::default();
         run_path_each(&mut walk, &poses, renderer, a.fps, |mut f| {
             f.frame = i; // path frames, after the start-up
             i += 1;
             over += usize::from(over_budget(&f));
-            short.push(&f);
             rec.push(&f);
             csv.push(&f)
         })?;
@@ -407,13 +404,20 @@ fn run(a: Args) -> Result<()> {
                 quality_rows.push(quality_row(&tag, &q));
             }
         }
+        let summary = rec.summary(period_ms);
         if mode != Mode::Incore
-            && let Some(w) = short.warning(&tag, budget, a.tolerance)
+            && let Some(w) = short::warning(
+                &tag,
+                budget,
+                a.tolerance,
+                rec.trace(),
+                summary.totals.tolerance_px,
+            )
         {
             eprintln!("warning: {w}");
             warnings.push_str(&format!("\n**Warning:** {w}\n"));
         }
-        rows.push(rec.summary(period_ms));
+        rows.push(summary);
         eprintln!("{tag}: done ({})", memory_note());
         done.push((mode, budget, rec.into_trace()));
     }
