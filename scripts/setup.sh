@@ -24,7 +24,8 @@ command -v xvfb-run >/dev/null 2>&1 || need+=(xvfb)
 command -v xauth >/dev/null 2>&1 || need+=(xauth)
 # A single-node Slurm cluster with job accounting, started by the cluster-build
 # test (scripts/slurm-local.sh): Slurm, munge, slurmdbd and MariaDB for it.
-for p in slurm-wlm slurm-client munge slurmdbd mariadb-server; do
+# nginx for scenes served over HTTP (scripts/serve.sh and the remote tests).
+for p in slurm-wlm slurm-client munge slurmdbd mariadb-server nginx-light; do
   has_pkg "$p" || need+=("$p")
 done
 

@@ -24,6 +24,18 @@ pub trait ByteSource: Send + Sync {
     fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()>;
 }
 
+/// A shared source is a source (a walk and a reader of the skeleton may
+/// hold the same one).
+impl<T: ByteSource + ?Sized> ByteSource for Arc<T> {
+    fn len(&self) -> u64 {
+        (**self).len()
+    }
+
+    fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
+        (**self).read_at(offset, buf)
+    }
+}
+
 /// A scene file on disk, read with positional reads (no shared cursor).
 #[derive(Debug)]
 pub struct FileSource {

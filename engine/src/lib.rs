@@ -66,8 +66,11 @@ pub mod outfile;
 pub mod pick;
 pub mod prefetch;
 pub mod records;
+#[cfg(feature = "remote")]
+pub mod remote;
 pub mod render;
 pub mod runtime;
+pub mod scene_handle;
 pub mod skeleton;
 pub mod vdt;
 
@@ -79,4 +82,5 @@ pub use format::{
     SceneFile, SceneMeta, SceneWriter,
 };
 pub use io::{ByteSource, FileSource, MemSource};
+pub use scene_handle::SceneHandle;
 pub use skeleton::{RepId, Skeleton, ValidationError};

@@ -320,12 +320,23 @@ fn parse_grid(s: &str) -> Result<(usize, usize)> {
 }
 
 fn info(file: &std::path::Path, verify: bool) -> Result<()> {
-    let scene = engine::SceneFile::open(file).with_context(|| format!("{}", file.display()))?;
+    // A local file, or a URL (http(s)://, s3://) read with ranged requests.
+    let handle = engine::SceneHandle::open(file).with_context(|| format!("{}", file.display()))?;
+    let scene = engine::SceneFile::from_source(handle.raw()?)
+        .with_context(|| format!("{}", file.display()))?;
     let stats = stats_of(&scene);
     let name = file
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
+    #[cfg(feature = "remote")]
+    if let engine::SceneHandle::Remote(r) = &handle {
+        println!(
+            "read from a server with ranged requests: {} bytes, {} (pinned: every read asks for this version)",
+            engine::ByteSource::len(r),
+            r.version()
+        );
+    }
     let s = scene.skeleton();
     let lods = s
         .reps
@@ -445,7 +456,7 @@ struct DataCheck {
 
 /// Reads every rep back (checksums, decoding, every meta-node of a tree),
 /// timing the expansion of the compressed ones.
-fn verify_data(scene: &engine::SceneFile<engine::io::FileSource>) -> Result<DataCheck> {
+fn verify_data<S: engine::ByteSource>(scene: &engine::SceneFile<S>) -> Result<DataCheck> {
     let s = scene.skeleton();
     let mut v = DataCheck::default();
     for r in 0..s.reps.len() as u32 {

@@ -86,7 +86,7 @@ pub fn mt_report(
 }
 
 /// One line of `hlod-build info` for MT rep `r`.
-pub fn info_line(scene: &engine::SceneFile<engine::io::FileSource>, r: u32) -> Result<String> {
+pub fn info_line<S: engine::ByteSource>(scene: &engine::SceneFile<S>, r: u32) -> Result<String> {
     let rec = scene.skeleton().reps[r as usize];
     let f = scene.read_mt(r)?;
     let h = f.header;

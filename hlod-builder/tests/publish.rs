@@ -87,8 +87,14 @@ fn boto(port: u16, code: &str) -> String {
 }
 
 fn publish(port: u16, args: &[&str]) -> Output {
+    hlod_build(port, "publish", args)
+}
+
+/// `hlod-build CMD ARGS` with moto's endpoint and test credentials in the
+/// environment (the only place credentials are read from).
+fn hlod_build(port: u16, cmd: &str, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_hlod-build"))
-        .arg("publish")
+        .arg(cmd)
         .args(args)
         .env("AWS_ACCESS_KEY_ID", "testing")
         .env("AWS_SECRET_ACCESS_KEY", SECRET)
@@ -208,6 +214,32 @@ fn publish_uploads_checked_parts_and_never_a_partial_object() {
     assert_eq!(boto(port, get), format!("{} {}", bytes.len(), md5(&bytes)));
     let uploads = "print(len(s3.list_multipart_uploads(Bucket='scenes').get('Uploads', [])))";
     assert_eq!(boto(port, uploads), "0");
+
+    // Read back through S3 by the engine's remote source (issue 46): the
+    // same summary as the local file, and every rep's checksum verified
+    // with ranged GETs.
+    let url = "s3://scenes/plants/plant.hlod";
+    let remote = hlod_build(port, "info", &[url]);
+    let local = hlod_build(port, "info", &[s, "--no-verify-data"]);
+    let (said, here) = (text(&remote), text(&local));
+    assert!(remote.status.success(), "{said}");
+    assert!(
+        said.contains("data: all ") && said.contains("match their checksums"),
+        "{said}"
+    );
+    assert!(
+        said.contains("read from a server with ranged requests"),
+        "{said}"
+    );
+    let table = |t: &str| t.lines().take(3).map(str::to_string).collect::<Vec<_>>();
+    assert_eq!(table(&said), table(&here));
+    let missing = hlod_build(port, "info", &["s3://scenes/plants/none.hlod"]);
+    assert!(!missing.status.success());
+    assert!(
+        text(&missing).contains("s3://scenes/plants/none.hlod: not found on the server"),
+        "{}",
+        text(&missing)
+    );
 
     // Another scene over the same key, its first part corrupted on the way:
     // the upload fails, the key keeps the first scene, no upload is left.

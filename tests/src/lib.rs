@@ -3,6 +3,7 @@
 
 pub mod conformance;
 pub mod reencode;
+pub mod servers;
 
 use std::path::PathBuf;
 

@@ -6,13 +6,13 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use engine::format::objects::ObjectTable;
-use engine::{FileSource, SceneFile};
+use engine::{ByteSource, SceneFile, SceneHandle};
 use glam::Vec3;
 use serde_json::Value;
 
 /// The scene file and its object section, opened at the first pick.
 pub struct Picker {
-    scene: SceneFile<FileSource>,
+    scene: SceneFile<std::sync::Arc<dyn ByteSource>>,
     objects: ObjectTable,
 }
 
@@ -38,12 +38,9 @@ pub struct Selection {
 }
 
 impl Picker {
-    pub fn open(path: &Path, file: &std::fs::File) -> Result<Self> {
+    pub fn open(path: &Path, handle: &SceneHandle) -> Result<Self> {
         let named = || path.display().to_string();
-        let src = file
-            .try_clone()
-            .and_then(FileSource::from_file)
-            .with_context(named)?;
+        let src = handle.raw().with_context(named)?;
         let scene = SceneFile::from_source(src).with_context(named)?;
         let objects = scene.read_objects().with_context(named)?;
         Ok(Self { scene, objects })

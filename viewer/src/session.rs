@@ -8,9 +8,9 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result};
 
-use engine::disk::{DiskModel, scene_source};
+use engine::disk::DiskModel;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
-use engine::{SceneFile, Skeleton};
+use engine::{SceneFile, SceneHandle, Skeleton};
 use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use glam::Vec3;
 
@@ -30,9 +30,10 @@ pub struct Settings {
 /// An open scene with its walkthrough.
 pub struct Session {
     pub path: PathBuf,
-    /// The scene file, held open: a walk restarted with new settings reads
-    /// the same file even if its path was replaced meanwhile.
-    file: std::fs::File,
+    /// The scene, held open: a walk restarted with new settings reads the
+    /// same file even if its path was replaced meanwhile (a remote scene:
+    /// the version pinned when it was opened).
+    handle: SceneHandle,
     pub skeleton: Arc<Skeleton>,
     pub data_bytes: u64,
     walk: Option<Walkthrough>,
@@ -66,11 +67,8 @@ impl Session {
         color_format: wgpu::TextureFormat,
     ) -> Result<Self> {
         let named = || path.display().to_string();
-        let file = engine::infile::open(path).with_context(named)?;
-        let src = file
-            .try_clone()
-            .and_then(engine::FileSource::from_file)
-            .with_context(named)?;
+        let handle = SceneHandle::open(path).with_context(named)?;
+        let src = handle.raw().with_context(named)?;
         let scene = SceneFile::from_source(src).with_context(named)?;
         let skeleton = Arc::new(scene.skeleton().clone());
         let origin = scene.meta().origin;
@@ -89,14 +87,14 @@ impl Session {
         (settings.params.width_px, settings.params.height_px) = size;
         let target = Target {
             path,
-            file: &file,
+            handle: &handle,
             skel: &skeleton,
             data_bytes,
         };
         let (walk, renderer) = start(&target, ctx, &settings, size, color_format)?;
         Ok(Self {
             path: path.to_path_buf(),
-            file,
+            handle,
             skeleton,
             data_bytes,
             walk: Some(walk),
@@ -115,7 +113,7 @@ impl Session {
         y: f32,
     ) -> Result<Option<crate::picking::Selection>> {
         if self.picker.is_none() {
-            let p = crate::picking::Picker::open(&self.path, &self.file)?;
+            let p = crate::picking::Picker::open(&self.path, &self.handle)?;
             self.picker = Some(p);
         }
         let cfg = *self.renderer.config();
@@ -173,7 +171,7 @@ impl Session {
             self.renderer.clear();
             let target = Target {
                 path: &self.path,
-                file: &self.file,
+                handle: &self.handle,
                 skel: &self.skeleton,
                 data_bytes: self.data_bytes,
             };
@@ -215,17 +213,18 @@ fn budget(data: u64, fraction: f64) -> u64 {
 /// The scene a walk reads: its file (held open), skeleton and data size.
 struct Target<'a> {
     path: &'a Path,
-    file: &'a std::fs::File,
+    handle: &'a SceneHandle,
     skel: &'a Arc<Skeleton>,
     data_bytes: u64,
 }
 
 fn start_walk(t: &Target<'_>, s: &Settings) -> Result<Walkthrough> {
     let model = if s.mode == Mode::Incore { None } else { s.disk };
+    // Over a network the network is the model: a disk model is for files.
+    let model = model.filter(|_| !t.handle.is_remote());
     let source = t
-        .file
-        .try_clone()
-        .and_then(|f| scene_source(f, model))
+        .handle
+        .source(model)
         .with_context(|| t.path.display().to_string())?;
     let budget_bytes = budget(t.data_bytes, s.budget_fraction);
     let params = RuntimeParams {

@@ -532,3 +532,53 @@ fn opens_an_ifc_model_by_its_path() {
     let ifc = e2e_tests::data_dir().join("ifc/Ifc2x3_Duplex_Architecture.ifc");
     opens_and_completes(dir.path(), ifc.to_str().unwrap(), "900");
 }
+
+/// A scene on a web server (nginx through `scripts/serve.sh`), opened by its
+/// URL: it completes and shows the scene as from the file.
+#[test]
+fn opens_a_scene_by_its_url() {
+    let test = "opens_a_scene_by_its_url";
+    if !can_run(test) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let served = d.join("served");
+    std::fs::create_dir(&served).unwrap();
+    let s = scene(&served);
+    let Some(nginx) = e2e_tests::servers::Nginx::start(test, &served) else {
+        return;
+    };
+    let url = format!(
+        "{}/{}",
+        nginx.base,
+        s.file_name().unwrap().to_string_lossy()
+    );
+    let args = [
+        "--exit-when-complete",
+        "--width",
+        "800",
+        "--height",
+        "450",
+        "--screenshot",
+    ];
+    let out = view(d, &[&[url.as_str()][..], &args, &["url.png"]].concat());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(String::from_utf8_lossy(&out.stdout).contains("first complete frame"));
+    assert!(nginx.access_log().iter().any(|l| l.contains(" 206 ")));
+    let img = RgbaImage::load_png(&d.join("url.png")).unwrap();
+    let cov = scene_coverage(&img);
+    assert!(cov > 0.03, "the scene is not visible ({cov})");
+    // The same view as from the file.
+    let local = s.to_string_lossy().to_string();
+    let out = view(d, &[&[local.as_str()][..], &args, &["file.png"]].concat());
+    assert!(out.status.success());
+    let file = RgbaImage::load_png(&d.join("file.png")).unwrap();
+    let off = (scene_coverage(&file) - cov).abs();
+    assert!(
+        off < 0.01,
+        "coverage {cov} over HTTP, {} from the file",
+        scene_coverage(&file)
+    );
+}

@@ -79,6 +79,8 @@ pub(super) struct Loader {
     /// The resident reps, their bytes, pins and the eviction rule.
     res: ResidentSet,
     failed: Vec<bool>,
+    /// Reps that failed to load in this walk (for the warnings' pace).
+    failures: u32,
     stats: LoaderCounters,
     /// The planners: the binned candidates (CLASSIFY), the fronts ahead,
     /// the sweep through small reps, and the late reads of this frame.
@@ -133,6 +135,7 @@ impl Loader {
                     .collect(),
             ),
             failed: pools.iter().map(|&p| p == super::trees::UNUSABLE).collect(),
+            failures: 0,
             skeleton,
             index,
             source,
@@ -600,9 +603,22 @@ impl Loader {
     fn fail(&mut self, r: RepId, why: &str) -> LoadError {
         self.failed[r as usize] = true;
         self.stats.read_errors += 1;
-        tracing::warn!(
-            "rep {r} cannot be loaded ({why}); its nearest resident ancestor is drawn instead"
-        );
+        self.failures = self.failures.saturating_add(1);
+        // One warning, then one at each power of two: a server gone or a
+        // file replaced fails every read that follows, not worth a line each.
+        let n = self.failures;
+        if n.is_power_of_two() {
+            tracing::warn!(
+                "rep {r} cannot be loaded ({why}); its nearest resident ancestor is drawn instead{}",
+                if n > 1 {
+                    format!(" ({n} reps so far)")
+                } else {
+                    String::new()
+                }
+            );
+        } else {
+            tracing::debug!("rep {r} cannot be loaded ({why})");
+        }
         LoadError::Failed
     }
 

@@ -494,3 +494,55 @@ fn a_footprint_below_the_fronts_is_said() {
     assert!(!err.contains("warning: "), "{err}");
     assert!(!table.contains("Warning"), "{table}");
 }
+
+/// A scene on a web server (nginx, through `scripts/serve.sh`): the same
+/// runs as from the local file, and a server that is down fails at start
+/// with one clear error naming the URL.
+#[test]
+fn walks_a_scene_served_over_http() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let served = d.join("served");
+    std::fs::create_dir(&served).unwrap();
+    write_scene(&served.join("s.hlod"));
+    let Some(nginx) = e2e_tests::servers::Nginx::start("bench_cli::over_http", &served) else {
+        return;
+    };
+    let url = format!("{}/s.hlod", nginx.base);
+    let args = |out: &'static str| {
+        vec![
+            "--frames", "30", "--fps", "0", "--budget", "1MiB", "--out", out,
+        ]
+    };
+    let remote = bench(d, &[&[url.as_str()][..], &args("r")].concat());
+    let err = String::from_utf8_lossy(&remote.stderr);
+    assert!(remote.status.success(), "{err}");
+    let local = bench(d, &[&["served/s.hlod"][..], &args("l")].concat());
+    assert!(local.status.success());
+    // The same fronts on every frame, whether read over HTTP or from disk.
+    let fronts = |o: &str| -> Vec<String> {
+        let csv = std::fs::read_to_string(d.join(o).join("pre.csv")).unwrap();
+        let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+        let col = head.iter().position(|c| *c == "front_reps").unwrap();
+        csv.lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(col).unwrap().to_string())
+            .collect()
+    };
+    assert_eq!(fronts("r"), fronts("l"));
+    assert!(nginx.access_log().iter().any(|l| l.contains(" 206 ")));
+    // A disk model is for local files.
+    let o = bench(
+        d,
+        &[&[url.as_str(), "--disk", "hdd"][..], &args("x")].concat(),
+    );
+    assert_fails(&o, "a disk model applies to local files only");
+    drop(nginx);
+    let down = bench(d, &[&[url.as_str()][..], &args("down")].concat());
+    assert_fails(&down, &url);
+    assert!(
+        String::from_utf8_lossy(&down.stderr).contains("length and version"),
+        "{}",
+        String::from_utf8_lossy(&down.stderr)
+    );
+}

@@ -14,6 +14,7 @@ mod mt_scene;
 mod objects;
 mod occlusion;
 mod reencode;
+mod remote;
 mod render;
 mod scenes;
 mod vdt;

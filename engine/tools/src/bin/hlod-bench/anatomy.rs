@@ -21,7 +21,6 @@ use glam::Vec3;
 
 use engine::camera::Pose;
 use engine::front::FrontIndex;
-use engine::io::FileSource;
 use engine::records::RepKind;
 use engine::runtime::RuntimeParams;
 use engine::skeleton::{RepId, Skeleton};
@@ -40,7 +39,7 @@ const THIN_RATIO: f32 = 2.0;
 /// What the diagnosis reads.
 pub struct Setup<'a> {
     pub skeleton: &'a Skeleton,
-    pub scene: &'a SceneFile<FileSource>,
+    pub scene: &'a SceneFile<std::sync::Arc<dyn engine::ByteSource>>,
     pub poses: &'a [Pose],
     pub params: RuntimeParams,
     /// Rasterise every this many frames.
@@ -79,7 +78,7 @@ struct Geo {
 /// Decoded reps and thin-member verdicts, by rep.
 struct Reps<'a> {
     skel: &'a Skeleton,
-    scene: &'a SceneFile<FileSource>,
+    scene: &'a SceneFile<std::sync::Arc<dyn engine::ByteSource>>,
     geo: HashMap<RepId, Rc<Geo>>,
     geo_bytes: usize,
     thin: HashMap<RepId, bool>,

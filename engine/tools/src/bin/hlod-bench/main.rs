@@ -20,15 +20,14 @@ use std::sync::Arc;
 use anyhow::{Context, Result, bail};
 use args::Args;
 use clap::Parser;
-use engine::SceneFile;
 use engine::camera::{PathKind, Pose, format_path, generate_path, read_path};
-use engine::disk::{DiskModel, scene_source};
+use engine::disk::DiskModel;
 use engine::image::RgbaImage;
-use engine::io::FileSource;
 use engine::metrics::{CsvStream, Recorder, Summary, TracePoint, summary_table, vdt_table};
 use engine::outfile::write_bytes;
 use engine::render::{NoneRenderer, Renderer};
 use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path_each};
+use engine::{SceneFile, SceneHandle};
 use engine_cli::{in_range, parse_size, size_or_off};
 use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use glam::Vec3;
@@ -81,9 +80,8 @@ fn run(a: Args) -> Result<()> {
     // The scene is opened once and held for the whole run: every mode
     // reads the same file even if its path is replaced meanwhile.
     let scene_name = a.scene.display().to_string();
-    let file = engine::infile::open(&a.scene).with_context(|| scene_name.clone())?;
-    let scene = SceneFile::from_source(FileSource::from_file(file.try_clone()?)?)
-        .with_context(|| scene_name.clone())?;
+    let handle = SceneHandle::open(&a.scene).with_context(|| scene_name.clone())?;
+    let scene = SceneFile::from_source(handle.raw()?).with_context(|| scene_name.clone())?;
     let skel = Arc::new(scene.skeleton().clone());
     let interior = if a.path.is_none() && a.path_kind == "interior" {
         // Openings' voids, spaces and doors are walked through.
@@ -239,7 +237,7 @@ fn run(a: Args) -> Result<()> {
         };
         let tolerances = tolerance_list(list).context("--fidelity")?;
         let source = || -> Result<Arc<dyn engine::io::ByteSource>> {
-            scene_source(file.try_clone()?, None).with_context(|| scene_name.clone())
+            handle.source(None).with_context(|| scene_name.clone())
         };
         let setup = fidelity::Setup {
             skeleton: &skel,
@@ -292,7 +290,7 @@ fn run(a: Args) -> Result<()> {
         }
         tags.insert(tag.clone());
         let model = if mode == Mode::Incore { None } else { disk };
-        let source = scene_source(file.try_clone()?, model).with_context(|| scene_name.clone())?;
+        let source = handle.source(model).with_context(|| scene_name.clone())?;
         let params = RuntimeParams {
             mode,
             budget_bytes: budget,

@@ -1,0 +1,488 @@
+//! Scenes on a web server (`http://`, `https://`) or in S3-compatible
+//! object storage (`s3://bucket/key`), read with ranged GETs.
+//!
+//! Through `object_store`: one API over HTTP range requests and S3 (and
+//! GCS or Azure later), with retries and exponential backoff, connect,
+//! read (stall) and whole-request time-outs, and a check of every ranged
+//! answer (a `206` with the asked `Content-Range`: a server that ignores
+//! `Range` and answers `200` with the whole file is refused before its body
+//! is read). The engine's loader threads are plain threads, so a source owns
+//! a small tokio runtime and blocks on each request.
+//!
+//! **Consistency.** Opening pins the object's version (length, ETag, else
+//! Last-Modified). Every later read asks for that version (`If-Match`, else
+//! `If-Unmodified-Since`) and checks what comes back; when the object
+//! changed, the source says so once and fails every later read without
+//! asking again: the old skeleton is never fed the new file's bytes.
+//!
+//! **Credentials** come from the environment (`AWS_ACCESS_KEY_ID`,
+//! `AWS_SECRET_ACCESS_KEY`, `AWS_SESSION_TOKEN`, `AWS_REGION`,
+//! `AWS_ENDPOINT_URL`, `AWS_ALLOW_HTTP`, as object_store reads them); a URL
+//! with a user name, password or query string is refused, so that no secret
+//! is ever given on a command line or written to a log.
+
+use std::io;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Duration;
+
+use object_store::aws::{AmazonS3Builder, AmazonS3ConfigKey};
+use object_store::http::HttpBuilder;
+use object_store::path::Path as StorePath;
+use object_store::{
+    BackoffConfig, ClientConfigKey, ClientOptions, GetOptions, GetRange, ObjectMeta, ObjectStore,
+    ObjectStoreExt, RetryConfig,
+};
+
+use crate::io::ByteSource;
+
+/// Whether `s` names a remote scene (a URL this module reads).
+pub fn is_remote(s: &str) -> bool {
+    ["http://", "https://", "s3://"]
+        .iter()
+        .any(|p| s.len() > p.len() && s[..p.len()].eq_ignore_ascii_case(p))
+}
+
+/// Time-outs and retries of a remote source.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RemoteOptions {
+    /// Establishing a connection.
+    pub connect_timeout: Duration,
+    /// The longest wait for the next bytes of an answer (a stalled server).
+    pub read_timeout: Duration,
+    /// The longest a whole request may take.
+    pub timeout: Duration,
+    /// Retries of a failed request (connection refused or reset, 5xx,
+    /// time-out), with exponential backoff.
+    pub retries: usize,
+    /// The first backoff; it doubles up to `max_backoff`.
+    pub init_backoff: Duration,
+    /// The longest backoff.
+    pub max_backoff: Duration,
+    /// No retry starts later than this after the first try.
+    pub retry_timeout: Duration,
+}
+
+impl Default for RemoteOptions {
+    fn default() -> Self {
+        Self {
+            connect_timeout: Duration::from_secs(5),
+            read_timeout: Duration::from_secs(10),
+            timeout: Duration::from_secs(120),
+            retries: 4,
+            init_backoff: Duration::from_millis(100),
+            max_backoff: Duration::from_secs(2),
+            retry_timeout: Duration::from_secs(20),
+        }
+    }
+}
+
+/// What opening a remote scene can fail with.
+#[derive(Debug, thiserror::Error)]
+pub enum RemoteError {
+    /// The text is not a URL this module reads.
+    #[error("{url}: {why}")]
+    BadUrl {
+        /// The URL as given (only when it holds no credentials).
+        url: String,
+        /// What is wrong with it.
+        why: String,
+    },
+    /// The object is not on the server (404, or no such bucket or key).
+    #[error("{url}: not found on the server")]
+    NotFound {
+        /// The scene's URL.
+        url: String,
+    },
+    /// The client could not be set up, or the first request failed.
+    #[error("{url}: {what}: {source}")]
+    Store {
+        /// The scene's URL.
+        url: String,
+        /// What was being done.
+        what: &'static str,
+        /// object_store's error.
+        #[source]
+        source: object_store::Error,
+    },
+    /// The runtime the requests run on could not start.
+    #[error("{url}: starting the HTTP client's runtime: {source}")]
+    Runtime {
+        /// The scene's URL.
+        url: String,
+        /// The OS error.
+        #[source]
+        source: io::Error,
+    },
+}
+
+/// Requests and bytes a remote source has served (shared by its clones).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RemoteStats {
+    /// Ranged GETs answered.
+    pub requests: u64,
+    /// Bytes they returned.
+    pub bytes: u64,
+    /// Reads that failed (after object_store's retries).
+    pub failures: u64,
+}
+
+/// A scene object on a server, pinned to the version it had when opened.
+/// Clones share the connection pool, the runtime and the counters.
+#[derive(Clone)]
+pub struct RemoteSource {
+    inner: Arc<Inner>,
+}
+
+struct Inner {
+    url: String,
+    store: Arc<dyn ObjectStore>,
+    path: StorePath,
+    meta: ObjectMeta,
+    rt: tokio::runtime::Runtime,
+    changed: AtomicBool,
+    requests: AtomicU64,
+    bytes: AtomicU64,
+    failures: AtomicU64,
+}
+
+impl std::fmt::Debug for RemoteSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RemoteSource")
+            .field("url", &self.inner.url)
+            .field("len", &self.inner.meta.size)
+            .field("e_tag", &self.inner.meta.e_tag)
+            .finish()
+    }
+}
+
+impl RemoteSource {
+    /// Opens the scene at `url` (`http(s)://…` or `s3://bucket/key`): asks
+    /// for its length and version (a HEAD request), which every later read
+    /// must match.
+    pub fn open(url: &str, opts: &RemoteOptions) -> Result<Self, RemoteError> {
+        let (store, path) = store_for(url, opts)?;
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .thread_name("hlod-remote")
+            .enable_all()
+            .build()
+            .map_err(|source| RemoteError::Runtime {
+                url: url.to_string(),
+                source,
+            })?;
+        let meta = rt.block_on(store.head(&path)).map_err(|e| match e {
+            object_store::Error::NotFound { .. } => RemoteError::NotFound {
+                url: url.to_string(),
+            },
+            source => RemoteError::Store {
+                url: url.to_string(),
+                what: "asking for the scene's length and version",
+                source,
+            },
+        })?;
+        Ok(Self {
+            inner: Arc::new(Inner {
+                url: url.to_string(),
+                store,
+                path,
+                meta,
+                rt,
+                changed: AtomicBool::new(false),
+                requests: AtomicU64::new(0),
+                bytes: AtomicU64::new(0),
+                failures: AtomicU64::new(0),
+            }),
+        })
+    }
+
+    /// The URL it was opened with.
+    pub fn url(&self) -> &str {
+        &self.inner.url
+    }
+
+    /// The version pinned at open: the ETag, else the Last-Modified time.
+    pub fn version(&self) -> String {
+        match &self.inner.meta.e_tag {
+            Some(t) => format!("ETag {t}"),
+            None => format!("Last-Modified {}", self.inner.meta.last_modified),
+        }
+    }
+
+    /// Whether the object changed on the server since it was opened (then
+    /// every read fails).
+    pub fn changed(&self) -> bool {
+        self.inner.changed.load(Ordering::Relaxed)
+    }
+
+    /// What it has served so far (all clones together).
+    pub fn stats(&self) -> RemoteStats {
+        RemoteStats {
+            requests: self.inner.requests.load(Ordering::Relaxed),
+            bytes: self.inner.bytes.load(Ordering::Relaxed),
+            failures: self.inner.failures.load(Ordering::Relaxed),
+        }
+    }
+
+    fn changed_error(&self, what: &str) -> io::Error {
+        let first = !self.inner.changed.swap(true, Ordering::Relaxed);
+        if first {
+            tracing::error!(
+                "{} changed on the server during the walk ({}; opened at {}): reads of the old scene stop, its resident reps stay drawn; open it again to see the new version",
+                self.inner.url,
+                what,
+                self.version()
+            );
+        }
+        io::Error::other(format!(
+            "{}: the scene changed on the server since it was opened ({})",
+            self.inner.url,
+            self.version()
+        ))
+    }
+
+    async fn get(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
+        let i = &self.inner;
+        let end = offset + buf.len() as u64;
+        let opts = GetOptions {
+            range: Some(GetRange::Bounded(offset..end)),
+            if_match: i.meta.e_tag.clone(),
+            if_unmodified_since: i.meta.e_tag.is_none().then_some(i.meta.last_modified),
+            ..GetOptions::default()
+        };
+        let res = match i.store.get_opts(&i.path, opts).await {
+            Ok(r) => r,
+            Err(object_store::Error::Precondition { .. }) => {
+                return Err(self.changed_error("the server refused the pinned version"));
+            }
+            Err(object_store::Error::NotFound { .. }) => {
+                return Err(self.changed_error("it is no longer there"));
+            }
+            Err(e) => {
+                return Err(io::Error::other(format!(
+                    "{}: bytes {offset}..{end}: {e}",
+                    i.url
+                )));
+            }
+        };
+        if res.meta.size != i.meta.size
+            || (i.meta.e_tag.is_some() && res.meta.e_tag != i.meta.e_tag)
+        {
+            return Err(self.changed_error(&format!(
+                "now {} bytes, ETag {}",
+                res.meta.size,
+                res.meta.e_tag.as_deref().unwrap_or("none")
+            )));
+        }
+        if res.range != (offset..end) {
+            return Err(io::Error::other(format!(
+                "{}: asked for bytes {offset}..{end}, the server sent {:?}",
+                i.url, res.range
+            )));
+        }
+        let bytes = res
+            .bytes()
+            .await
+            .map_err(|e| io::Error::other(format!("{}: bytes {offset}..{end}: {e}", i.url)))?;
+        if bytes.len() != buf.len() {
+            return Err(io::Error::new(
+                io::ErrorKind::UnexpectedEof,
+                format!(
+                    "{}: bytes {offset}..{end}: a short answer of {} bytes",
+                    i.url,
+                    bytes.len()
+                ),
+            ));
+        }
+        buf.copy_from_slice(&bytes);
+        Ok(())
+    }
+}
+
+impl ByteSource for RemoteSource {
+    fn len(&self) -> u64 {
+        self.inner.meta.size
+    }
+
+    fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
+        let total = self.len();
+        if offset
+            .checked_add(buf.len() as u64)
+            .is_none_or(|e| e > total)
+        {
+            return Err(io::Error::new(
+                io::ErrorKind::UnexpectedEof,
+                format!(
+                    "read of {} bytes at offset {offset} past the end ({total} bytes)",
+                    buf.len()
+                ),
+            ));
+        }
+        if buf.is_empty() {
+            return Ok(());
+        }
+        let res = if self.changed() {
+            // No request for a version the server no longer has.
+            Err(self.changed_error(""))
+        } else {
+            self.inner.rt.block_on(self.get(offset, buf))
+        };
+        match &res {
+            Ok(()) => {
+                self.inner.requests.fetch_add(1, Ordering::Relaxed);
+                self.inner
+                    .bytes
+                    .fetch_add(buf.len() as u64, Ordering::Relaxed);
+            }
+            Err(_) => {
+                self.inner.failures.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+        res
+    }
+}
+
+/// The store and object path a URL names, with `opts`' time-outs and
+/// retries.
+fn store_for(
+    url: &str,
+    opts: &RemoteOptions,
+) -> Result<(Arc<dyn ObjectStore>, StorePath), RemoteError> {
+    let bad = |why: &str| RemoteError::BadUrl {
+        url: url.to_string(),
+        why: why.to_string(),
+    };
+    let (scheme, rest) = url.split_once("://").ok_or_else(|| bad("not a URL"))?;
+    let scheme = scheme.to_ascii_lowercase();
+    if rest.contains(['?', '#']) {
+        return Err(bad(
+            "a query string or fragment is not accepted (credentials come from the environment)",
+        ));
+    }
+    let (authority, key) = rest.split_once('/').unwrap_or((rest, ""));
+    if authority.contains('@') {
+        // Not echoed: the text before '@' may be a password.
+        return Err(RemoteError::BadUrl {
+            url: format!("{scheme}://…@{}", authority.rsplit('@').next().unwrap_or("")),
+            why: "a user name or password in the URL is not accepted; give credentials through the environment".into(),
+        });
+    }
+    if authority.is_empty() || key.is_empty() || key.ends_with('/') {
+        return Err(bad("names no object (expected scheme://host/…/scene.hlod)"));
+    }
+    let retry = RetryConfig {
+        backoff: BackoffConfig {
+            init_backoff: opts.init_backoff,
+            max_backoff: opts.max_backoff,
+            base: 2.0,
+        },
+        max_retries: opts.retries,
+        retry_timeout: opts.retry_timeout,
+    };
+    let store_err = |source| RemoteError::Store {
+        url: url.to_string(),
+        what: "setting up the client",
+        source,
+    };
+    let path = |k: &str| StorePath::from_url_path(k).map_err(|e| bad(&format!("its path: {e}")));
+    match scheme.as_str() {
+        "http" | "https" => {
+            // The store's URL is the object's folder; the path its name.
+            let (dir, name) = key.rsplit_once('/').unwrap_or(("", key));
+            let base = if dir.is_empty() {
+                format!("{scheme}://{authority}")
+            } else {
+                format!("{scheme}://{authority}/{dir}")
+            };
+            let client = ClientOptions::new()
+                .with_allow_http(scheme == "http")
+                .with_connect_timeout(opts.connect_timeout)
+                .with_read_timeout(opts.read_timeout)
+                .with_timeout(opts.timeout);
+            let store = HttpBuilder::new()
+                .with_url(base)
+                .with_client_options(client)
+                .with_retry(retry)
+                .build()
+                .map_err(store_err)?;
+            Ok((Arc::new(store), path(name)?))
+        }
+        "s3" => {
+            let secs = |d: Duration| format!("{}ms", d.as_millis());
+            let store = AmazonS3Builder::from_env()
+                .with_bucket_name(authority)
+                .with_config(
+                    AmazonS3ConfigKey::Client(ClientConfigKey::ConnectTimeout),
+                    secs(opts.connect_timeout),
+                )
+                .with_config(
+                    AmazonS3ConfigKey::Client(ClientConfigKey::ReadTimeout),
+                    secs(opts.read_timeout),
+                )
+                .with_config(
+                    AmazonS3ConfigKey::Client(ClientConfigKey::Timeout),
+                    secs(opts.timeout),
+                )
+                .with_retry(retry)
+                .build()
+                .map_err(store_err)?;
+            Ok((Arc::new(store), path(key)?))
+        }
+        _ => Err(bad("use http://, https:// or s3://")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn recognises_remote_names() {
+        for s in ["http://h/a.hlod", "HTTPS://h/a", "s3://b/k"] {
+            assert!(is_remote(s), "{s}");
+        }
+        for s in ["a.hlod", "/tmp/http://x", "http://", "file:///a"] {
+            assert!(!is_remote(s), "{s}");
+        }
+    }
+
+    #[test]
+    fn refuses_credentials_queries_and_folders() {
+        let o = RemoteOptions::default();
+        let e = store_for("http://user:hunter2@h/a.hlod", &o)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(!e.contains("hunter2") && e.contains("environment"), "{e}");
+        for u in [
+            "http://h/a.hlod?X-Amz-Signature=1",
+            "http://h/",
+            "http://h",
+            "ftp://h/a",
+        ] {
+            assert!(store_for(u, &o).is_err(), "{u}");
+        }
+        assert!(store_for("http://127.0.0.1:1/d/a%20b.hlod", &o).is_ok());
+    }
+
+    #[test]
+    fn a_server_that_is_down_is_a_clear_error() {
+        let o = RemoteOptions {
+            retries: 1,
+            init_backoff: Duration::from_millis(10),
+            ..RemoteOptions::default()
+        };
+        // A port nothing listens on (bound, then released).
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port();
+        let url = format!("http://127.0.0.1:{port}/s.hlod");
+        let e = RemoteSource::open(&url, &o).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&url) && e.contains("length and version"),
+            "{e}"
+        );
+    }
+}

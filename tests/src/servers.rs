@@ -1,0 +1,258 @@
+//! Real servers for the remote-scene tests: nginx serving a folder (started
+//! through `scripts/serve.sh`, as a user would start it), and a fault proxy
+//! in front of it that answers chosen requests wrongly: a status code, the
+//! whole file instead of the range, a short body, a reset or a stall, or
+//! every answer late (a round-trip time).
+
+use std::collections::VecDeque;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// A port free now (bound, then released).
+pub fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// nginx serving a folder on 127.0.0.1, stopped on drop.
+#[derive(Debug)]
+pub struct Nginx {
+    child: Child,
+    /// The server's base URL (`http://127.0.0.1:PORT`).
+    pub base: String,
+    /// Its port.
+    pub port: u16,
+    /// Its log folder (`access.log`: method, path, status, bytes, range).
+    pub logs: tempfile::TempDir,
+}
+
+impl Nginx {
+    /// Serves `dir`, or `None` (the skip recorded) when nginx is not
+    /// installed; with `HLOD_REQUIRE_NGINX` set a missing nginx fails.
+    pub fn start(test: &str, dir: &Path) -> Option<Self> {
+        let have = Path::new("/usr/sbin/nginx").exists()
+            || Command::new("nginx").arg("-v").output().is_ok();
+        if !have {
+            if std::env::var_os("HLOD_REQUIRE_NGINX").is_some() {
+                panic!("{test}: nginx not found although HLOD_REQUIRE_NGINX is set");
+            }
+            crate::record_skip(test, "nginx not installed (scripts/setup.sh installs it)");
+            return None;
+        }
+        let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scripts/serve.sh");
+        let logs = tempfile::tempdir().expect("a temp dir");
+        for _ in 0..5 {
+            let port = free_port();
+            let mut child = Command::new("bash")
+                .arg(&script)
+                .arg(dir)
+                .arg(port.to_string())
+                .env("SERVE_TMP", logs.path())
+                .stdin(Stdio::null())
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("serve.sh starts");
+            let t = Instant::now();
+            while t.elapsed() < Duration::from_secs(10) {
+                if TcpStream::connect(("127.0.0.1", port)).is_ok() {
+                    return Some(Self {
+                        child,
+                        base: format!("http://127.0.0.1:{port}"),
+                        port,
+                        logs,
+                    });
+                }
+                if child.try_wait().ok().flatten().is_some() {
+                    break; // the port was taken meanwhile: try another
+                }
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+        panic!(
+            "{test}: nginx did not start: {}",
+            std::fs::read_to_string(logs.path().join("error.log")).unwrap_or_default()
+        );
+    }
+
+    /// The lines of its access log so far.
+    pub fn access_log(&self) -> Vec<String> {
+        std::fs::read_to_string(self.logs.path().join("access.log"))
+            .unwrap_or_default()
+            .lines()
+            .map(str::to_string)
+            .collect()
+    }
+}
+
+impl Drop for Nginx {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// How the proxy answers one request.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fault {
+    /// Forwarded to nginx and its answer passed back.
+    Pass,
+    /// This status with an empty body (503, 404, 416, …).
+    Status(u16),
+    /// The `Range` header removed: nginx's `200` with the whole file.
+    IgnoreRange,
+    /// The answer's head and half its body, then the connection closed.
+    ShortBody,
+    /// The connection closed without an answer.
+    Reset,
+    /// No answer for this long, then the connection closed.
+    Stall(Duration),
+}
+
+/// A proxy on 127.0.0.1 in front of a server: answers each request as the
+/// next fault queued says (then [`Fault::Pass`]), each answer delayed by
+/// `delay` (half a round trip each way, as a far server would). Runs until
+/// the process ends.
+#[derive(Debug, Clone)]
+pub struct FaultProxy {
+    /// The proxy's base URL.
+    pub base: String,
+    queue: Arc<Mutex<VecDeque<Fault>>>,
+    /// Requests seen.
+    pub requests: Arc<AtomicU64>,
+}
+
+impl FaultProxy {
+    /// Starts a proxy to `upstream_port`, each answer `delay` late.
+    pub fn start(upstream_port: u16, delay: Duration) -> Self {
+        let listener = TcpListener::bind("127.0.0.1:0").expect("binds");
+        let port = listener.local_addr().expect("addr").port();
+        let queue: Arc<Mutex<VecDeque<Fault>>> = Arc::default();
+        let requests = Arc::new(AtomicU64::new(0));
+        let (q, n) = (queue.clone(), requests.clone());
+        std::thread::spawn(move || {
+            for conn in listener.incoming().flatten() {
+                let (q, n) = (q.clone(), n.clone());
+                std::thread::spawn(move || {
+                    let _ = serve_conn(conn, upstream_port, delay, &q, &n);
+                });
+            }
+        });
+        Self {
+            base: format!("http://127.0.0.1:{port}"),
+            queue,
+            requests,
+        }
+    }
+
+    /// Queues `faults` for the next requests.
+    pub fn push(&self, faults: &[Fault]) {
+        self.queue.lock().expect("lock").extend(faults);
+    }
+
+    /// Drops the faults not yet used.
+    pub fn clear(&self) {
+        self.queue.lock().expect("lock").clear();
+    }
+}
+
+/// A request's head (through the blank line), or `None` at the end.
+fn read_head(r: &mut BufReader<TcpStream>) -> std::io::Result<Option<Vec<String>>> {
+    let mut lines = Vec::new();
+    loop {
+        let mut line = String::new();
+        if r.read_line(&mut line)? == 0 {
+            return Ok(None);
+        }
+        let line = line.trim_end().to_string();
+        if line.is_empty() {
+            return Ok(Some(lines));
+        }
+        lines.push(line);
+    }
+}
+
+/// The content length a head gives (0 when none).
+fn content_length(head: &[String]) -> usize {
+    head.iter()
+        .filter_map(|l| l.split_once(':'))
+        .find(|(k, _)| k.trim().eq_ignore_ascii_case("content-length"))
+        .and_then(|(_, v)| v.trim().parse().ok())
+        .unwrap_or(0)
+}
+
+fn serve_conn(
+    client: TcpStream,
+    upstream_port: u16,
+    delay: Duration,
+    queue: &Mutex<VecDeque<Fault>>,
+    requests: &AtomicU64,
+) -> std::io::Result<()> {
+    let mut reader = BufReader::new(client.try_clone()?);
+    let mut client = client;
+    let upstream = TcpStream::connect(("127.0.0.1", upstream_port))?;
+    let mut up_reader = BufReader::new(upstream.try_clone()?);
+    let mut upstream = upstream;
+    while let Some(head) = read_head(&mut reader)? {
+        requests.fetch_add(1, Ordering::Relaxed);
+        let fault = queue
+            .lock()
+            .expect("lock")
+            .pop_front()
+            .unwrap_or(Fault::Pass);
+        let is_head = head.first().is_some_and(|l| l.starts_with("HEAD "));
+        std::thread::sleep(delay);
+        match fault {
+            Fault::Status(code) => {
+                write!(client, "HTTP/1.1 {code} Fault\r\nContent-Length: 0\r\n\r\n")?;
+                continue;
+            }
+            Fault::Reset => return Ok(()),
+            Fault::Stall(d) => {
+                std::thread::sleep(d);
+                return Ok(());
+            }
+            Fault::Pass | Fault::IgnoreRange | Fault::ShortBody => {}
+        }
+        let mut req = String::new();
+        for l in &head {
+            let dropped = fault == Fault::IgnoreRange
+                && l.split_once(':')
+                    .is_some_and(|(k, _)| k.trim().eq_ignore_ascii_case("range"));
+            if !dropped {
+                req.push_str(l);
+                req.push_str("\r\n");
+            }
+        }
+        req.push_str("\r\n");
+        upstream.write_all(req.as_bytes())?;
+        let Some(resp) = read_head(&mut up_reader)? else {
+            return Ok(());
+        };
+        let len = if is_head { 0 } else { content_length(&resp) };
+        let mut body = vec![0u8; len];
+        up_reader.read_exact(&mut body)?;
+        let mut out = String::new();
+        for l in &resp {
+            out.push_str(l);
+            out.push_str("\r\n");
+        }
+        out.push_str("\r\n");
+        client.write_all(out.as_bytes())?;
+        if fault == Fault::ShortBody {
+            client.write_all(&body[..len / 2])?;
+            return Ok(());
+        }
+        client.write_all(&body)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,295 @@
+//! Scenes read from a real web server (nginx, started through
+//! `scripts/serve.sh`): the same bytes and fronts as the local file under
+//! the same budget, a file replaced on the server mid-walk, and the faults
+//! a network brings (5xx, 404, 416, `Range` ignored, short bodies, resets,
+//! stalls) injected by a proxy in front of nginx.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use e2e_tests::servers::{Fault, FaultProxy, Nginx};
+use engine::camera::{PathKind, Pose, generate_path};
+use engine::metrics::FrameMetrics;
+use engine::remote::{RemoteOptions, RemoteSource};
+use engine::render::NoneRenderer;
+use engine::runtime::{Mode, RuntimeParams, Walkthrough, run_path};
+use engine::skeleton::Skeleton;
+use engine::{ByteSource, FileSource, SceneFile, SceneHandle};
+use glam::Vec3;
+use hlod_builder::build::{BuildParams, build_file};
+use hlod_builder::scenegen::plant::{PlantParams, write_plant};
+
+/// A plant built into `dir/NAME`.
+fn plant(dir: &Path, name: &str, seed: u64) -> PathBuf {
+    let glb = dir.join(format!("{name}.glb"));
+    let scene = dir.join(name);
+    let p = PlantParams {
+        seed,
+        objects: 120,
+        triangles: 60_000,
+    };
+    write_plant(&p, &glb).unwrap();
+    build_file(&glb, &scene, &BuildParams::default(), false).unwrap();
+    std::fs::remove_file(&glb).unwrap();
+    scene
+}
+
+fn flythrough(skel: &Skeleton, frames: usize) -> Vec<Pose> {
+    let root = &skel.nodes[0];
+    generate_path(
+        PathKind::Flythrough,
+        Vec3::from(root.bbox_min),
+        Vec3::from(root.bbox_max),
+        frames,
+    )
+}
+
+/// Walks `source` in `mode` under `budget`, checking every frame: the
+/// footprint within the budget, every front rep drawn as itself or an
+/// ancestor.
+fn walk(
+    skel: &Arc<Skeleton>,
+    source: Arc<dyn ByteSource>,
+    mode: Mode,
+    budget: u64,
+    poses: &[Pose],
+) -> Vec<FrameMetrics> {
+    let params = RuntimeParams {
+        mode,
+        budget_bytes: budget,
+        tolerance_px: 1.0,
+        ..RuntimeParams::default()
+    };
+    let mut w = Walkthrough::start(skel.clone(), source, params).unwrap();
+    let frames = run_path(&mut w, poses, &mut NoneRenderer::new(0.0), 0.0).unwrap();
+    for f in &frames {
+        assert!(
+            f.loader.max_resident_bytes <= budget,
+            "{mode:?} frame {}",
+            f.frame
+        );
+        assert_eq!(
+            f.drawn_reps + f.substituted,
+            f.front_reps,
+            "{mode:?} frame {}",
+            f.frame
+        );
+    }
+    frames
+}
+
+fn errors(frames: &[FrameMetrics]) -> u32 {
+    frames.iter().map(|f| f.loader.read_errors).sum()
+}
+
+fn fast_options() -> RemoteOptions {
+    RemoteOptions {
+        read_timeout: Duration::from_millis(400),
+        connect_timeout: Duration::from_secs(2),
+        timeout: Duration::from_secs(10),
+        retries: 3,
+        init_backoff: Duration::from_millis(10),
+        max_backoff: Duration::from_millis(50),
+        retry_timeout: Duration::from_secs(5),
+    }
+}
+
+#[test]
+fn a_scene_on_nginx_reads_and_walks_as_the_local_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let local = plant(dir.path(), "plant.hlod", 5);
+    let Some(nginx) = Nginx::start("remote::reads_and_walks", dir.path()) else {
+        return;
+    };
+    let url = format!("{}/plant.hlod", nginx.base);
+    let handle = SceneHandle::open(Path::new(&url)).unwrap();
+    assert!(handle.is_remote());
+    let remote = SceneFile::from_source(handle.raw().unwrap()).unwrap();
+    let file = SceneFile::open(&local).unwrap();
+    assert_eq!(remote.skeleton(), file.skeleton());
+    assert_eq!(
+        remote.read_objects_bytes().unwrap(),
+        file.read_objects_bytes().unwrap()
+    );
+    for r in 0..file.skeleton().reps.len() as u32 {
+        assert_eq!(
+            remote.read_rep_bytes(r).unwrap(),
+            file.read_rep_bytes(r).unwrap(),
+            "rep {r}"
+        );
+    }
+    assert!(
+        handle.source(Some(engine::disk::DiskModel::HDD)).is_err(),
+        "no disk model over a network"
+    );
+
+    let skel = Arc::new(file.skeleton().clone());
+    let data: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
+    let poses = flythrough(&skel, 160);
+    for mode in [Mode::NoPre, Mode::Pre] {
+        let over_http = walk(&skel, handle.source(None).unwrap(), mode, data / 20, &poses);
+        let from_file: Arc<dyn ByteSource> = Arc::new(FileSource::open(&local).unwrap());
+        let on_disk = walk(&skel, from_file, mode, data / 20, &poses);
+        assert_eq!(errors(&over_http), 0, "{mode:?}");
+        // The front depends on the view alone: the same on every frame.
+        let fronts = |f: &[FrameMetrics]| f.iter().map(|m| m.front_reps).collect::<Vec<_>>();
+        assert_eq!(fronts(&over_http), fronts(&on_disk), "{mode:?}");
+        let fetched: u64 = over_http
+            .iter()
+            .map(|f| f.loader.stage2_bytes + f.loader.prefetch_bytes)
+            .sum();
+        assert!(fetched > 0, "{mode:?} read reps over HTTP");
+    }
+    // Every read was a ranged GET answered with 206.
+    let log = nginx.access_log();
+    let gets: Vec<&String> = log.iter().filter(|l| l.starts_with("GET ")).collect();
+    assert!(gets.len() > 10, "{log:?}");
+    for l in gets {
+        assert!(l.contains(" 206 ") && l.contains("\"bytes="), "{l}");
+    }
+}
+
+#[test]
+fn a_scene_replaced_on_the_server_is_not_read_against_the_old_skeleton() {
+    let dir = tempfile::tempdir().unwrap();
+    let local = plant(dir.path(), "plant.hlod", 5);
+    let Some(nginx) = Nginx::start("remote::replaced", dir.path()) else {
+        return;
+    };
+    let url = format!("{}/plant.hlod", nginx.base);
+    let src = RemoteSource::open(&url, &fast_options()).unwrap();
+    let skel = Arc::new(SceneFile::open(&local).unwrap().skeleton().clone());
+    let data: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
+    let budget = data / 10;
+    let params = RuntimeParams {
+        mode: Mode::Pre,
+        budget_bytes: budget,
+        tolerance_px: 1.0,
+        ..RuntimeParams::default()
+    };
+    let poses = flythrough(&skel, 120);
+    let mut w = Walkthrough::start(skel.clone(), Arc::new(src.clone()), params).unwrap();
+    let mut none = NoneRenderer::new(0.0);
+    let mut frames = run_path(&mut w, &poses[..30], &mut none, 0.0).unwrap();
+    assert_eq!(errors(&frames), 0);
+    // A rebuild renamed over the served file mid-walk (another plant:
+    // another length, hence another ETag even within the same second).
+    let other = plant(dir.path(), "other.hlod", 9);
+    std::fs::rename(&other, &local).unwrap();
+    frames.extend(run_path(&mut w, &poses[30..], &mut none, 0.0).unwrap());
+    drop(w);
+    // The walk went on with what was resident, within the budget; the
+    // reads it still wanted failed and were reported.
+    for f in &frames {
+        assert!(f.loader.max_resident_bytes <= budget, "frame {}", f.frame);
+        assert_eq!(
+            f.drawn_reps + f.substituted,
+            f.front_reps,
+            "frame {}",
+            f.frame
+        );
+    }
+    assert!(errors(&frames) > 0 && src.changed());
+    let mut b = [0u8; 64];
+    let e = src.read_at(100, &mut b).unwrap_err().to_string();
+    assert!(
+        e.contains(&url) && e.contains("changed on the server"),
+        "{e}"
+    );
+    // From now on no request is made for the old version.
+    let logged = nginx.access_log().len();
+    assert!(src.read_at(0, &mut b).is_err());
+    assert_eq!(nginx.access_log().len(), logged);
+    // Opened again, it is the new scene.
+    let again = RemoteSource::open(&url, &fast_options()).unwrap();
+    assert_eq!(again.len(), std::fs::metadata(&local).unwrap().len());
+}
+
+#[test]
+fn network_faults_are_retried_or_reported_never_hung() {
+    let dir = tempfile::tempdir().unwrap();
+    let local = plant(dir.path(), "plant.hlod", 5);
+    let Some(nginx) = Nginx::start("remote::faults", dir.path()) else {
+        return;
+    };
+    let bytes = std::fs::read(&local).unwrap();
+    let proxy = FaultProxy::start(nginx.port, Duration::ZERO);
+    let url = format!("{}/plant.hlod", proxy.base);
+    let open = || RemoteSource::open(&url, &fast_options()).unwrap();
+    let src = open();
+    let (at, n) = (bytes.len() / 3, 4000);
+    let read = |s: &RemoteSource| {
+        let mut b = vec![0u8; n];
+        let t = Instant::now();
+        let r = s.read_at(at as u64, &mut b).map(|()| b);
+        let took = t.elapsed();
+        assert!(
+            took < Duration::from_secs(8),
+            "{took:?}: bounded by the time-outs"
+        );
+        r
+    };
+    let want = bytes[at..at + n].to_vec();
+    // Transient: retried with backoff, and the bytes are right.
+    for faults in [
+        vec![Fault::Status(503), Fault::Status(502)],
+        vec![Fault::Reset],
+        vec![Fault::ShortBody],
+        vec![Fault::Stall(Duration::from_secs(2))],
+    ] {
+        proxy.push(&faults);
+        assert_eq!(read(&src).unwrap(), want, "{faults:?}");
+    }
+    // Lasting: one clear error naming the URL and the byte range.
+    for (faults, says) in [
+        (vec![Fault::Status(503); 8], "503"),
+        (vec![Fault::ShortBody; 8], "bytes"),
+        (vec![Fault::Status(416)], "416"),
+        (vec![Fault::IgnoreRange], "bytes"),
+    ] {
+        proxy.push(&faults);
+        let e = read(&src).unwrap_err().to_string();
+        proxy.clear();
+        assert!(e.contains(&url) && e.contains(says), "{faults:?}: {e}");
+        assert!(!src.changed(), "{faults:?}");
+        assert_eq!(read(&src).unwrap(), want, "{faults:?}: the next read works");
+    }
+    // Gone from the server: the scene is no longer read.
+    proxy.push(&[Fault::Status(404)]);
+    let e = read(&src).unwrap_err().to_string();
+    assert!(e.contains("changed on the server") && src.changed(), "{e}");
+    // Down at start: a clear error.
+    proxy.push(&[Fault::Status(503); 8]);
+    let e = RemoteSource::open(&url, &fast_options())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains(&url) && e.contains("length and version"), "{e}");
+    proxy.clear();
+
+    // A walk through a flaky server: every read that failed is reported,
+    // its rep drawn as an ancestor, the budget held on every frame.
+    let src = open();
+    let skel = Arc::new(SceneFile::open(&local).unwrap().skeleton().clone());
+    let data: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
+    let mut faults = Vec::new();
+    for i in 0..60 {
+        faults.push(Fault::Pass);
+        faults.extend(match i % 4 {
+            0 => vec![Fault::Status(500); 5],
+            1 => vec![Fault::Reset],
+            2 => vec![Fault::ShortBody; 5],
+            _ => vec![Fault::Status(503)],
+        });
+    }
+    proxy.push(&faults);
+    let frames = walk(
+        &skel,
+        Arc::new(src.clone()),
+        Mode::Pre,
+        data / 20,
+        &flythrough(&skel, 120),
+    );
+    assert!(errors(&frames) > 0, "some reads failed for good");
+    assert!(src.stats().requests > 0, "and others were served");
+}
