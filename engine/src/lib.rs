@@ -50,6 +50,8 @@ pub mod cache;
 pub mod camera;
 pub mod clock;
 pub mod disk;
+#[cfg(feature = "remote")]
+pub mod disk_cache;
 pub mod fade;
 pub mod format;
 pub mod front;

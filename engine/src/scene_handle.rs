@@ -16,23 +16,104 @@ use crate::io::{ByteSource, FileSource};
 pub enum SceneHandle {
     /// A local file.
     File(std::fs::File),
-    /// An object on a server.
+    /// An object on a server, read through a local disk cache if given.
     #[cfg(feature = "remote")]
-    Remote(crate::remote::RemoteSource),
+    Remote(
+        crate::remote::RemoteSource,
+        Option<crate::disk_cache::CachedSource>,
+    ),
+}
+
+/// What a scene's reads cost on the network (counters since it was opened).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct NetworkCounters {
+    /// Ranged GETs answered.
+    pub requests: u64,
+    /// Bytes they returned.
+    pub bytes: u64,
+    /// Reads that failed after retries.
+    pub failures: u64,
+    /// Bytes the disk cache served instead.
+    pub cache_hit_bytes: u64,
+}
+
+impl std::ops::Sub for NetworkCounters {
+    type Output = Self;
+    fn sub(self, o: Self) -> Self {
+        Self {
+            requests: self.requests - o.requests,
+            bytes: self.bytes - o.bytes,
+            failures: self.failures - o.failures,
+            cache_hit_bytes: self.cache_hit_bytes - o.cache_hit_bytes,
+        }
+    }
+}
+
+/// Where fetched bytes of a remote scene are kept between runs.
+#[derive(Debug, Clone)]
+pub struct DiskCacheSpec {
+    /// The cache folder.
+    pub dir: std::path::PathBuf,
+    /// Its bound in bytes.
+    pub max_bytes: u64,
 }
 
 impl SceneHandle {
     /// Opens `path`: a URL (`http://`, `https://`, `s3://`) when the
     /// `remote` feature is on and the text is one, else a local file.
     pub fn open(path: &Path) -> io::Result<Self> {
+        Self::open_cached(path, None)
+    }
+
+    /// [`Self::open`], a remote scene read through the disk cache `cache`
+    /// (ignored for a local file).
+    pub fn open_cached(path: &Path, cache: Option<&DiskCacheSpec>) -> io::Result<Self> {
         #[cfg(feature = "remote")]
         if let Some(url) = path.to_str().filter(|s| crate::remote::is_remote(s)) {
             let opts = crate::remote::RemoteOptions::default();
-            return crate::remote::RemoteSource::open(url, &opts)
-                .map(Self::Remote)
-                .map_err(io::Error::other);
+            let remote = crate::remote::RemoteSource::open(url, &opts).map_err(io::Error::other)?;
+            let cached = match cache {
+                Some(c) => {
+                    let dc =
+                        crate::disk_cache::DiskCache::open(&c.dir, c.max_bytes).map_err(|e| {
+                            io::Error::new(e.kind(), format!("disk cache {}: {e}", c.dir.display()))
+                        })?;
+                    Some(crate::disk_cache::CachedSource::new(remote.clone(), dc)?)
+                }
+                None => None,
+            };
+            return Ok(Self::Remote(remote, cached));
         }
+        let _ = cache;
         crate::infile::open(path).map(Self::File)
+    }
+
+    /// Requests made to the server and the bytes they returned so far, and
+    /// the bytes the disk cache served (zeros for a local file).
+    pub fn network(&self) -> NetworkCounters {
+        match self {
+            Self::File(_) => NetworkCounters::default(),
+            #[cfg(feature = "remote")]
+            Self::Remote(r, c) => {
+                let s = r.stats();
+                NetworkCounters {
+                    requests: s.requests,
+                    bytes: s.bytes,
+                    failures: s.failures,
+                    cache_hit_bytes: c.as_ref().map_or(0, |c| c.stats().hit_bytes),
+                }
+            }
+        }
+    }
+
+    /// Bytes served by the disk cache and fetched from the server so far
+    /// (a remote scene read through a cache).
+    #[cfg(feature = "remote")]
+    pub fn cache_stats(&self) -> Option<crate::disk_cache::CacheStats> {
+        match self {
+            Self::Remote(_, Some(c)) => Some(c.stats()),
+            _ => None,
+        }
     }
 
     /// Whether the scene is read over a network.
@@ -46,7 +127,9 @@ impl SceneHandle {
         Ok(match self {
             Self::File(f) => Arc::new(FileSource::from_file(f.try_clone()?)?),
             #[cfg(feature = "remote")]
-            Self::Remote(r) => Arc::new(r.clone()),
+            Self::Remote(r, None) => Arc::new(r.clone()),
+            #[cfg(feature = "remote")]
+            Self::Remote(_, Some(c)) => Arc::new(c.clone()),
         })
     }
 
@@ -57,8 +140,8 @@ impl SceneHandle {
         match self {
             Self::File(f) => scene_source(f.try_clone()?, model),
             #[cfg(feature = "remote")]
-            Self::Remote(r) => match model {
-                None => Ok(Arc::new(r.clone())),
+            Self::Remote(r, _) => match model {
+                None => self.raw(),
                 Some(_) => Err(io::Error::new(
                     io::ErrorKind::InvalidInput,
                     format!(

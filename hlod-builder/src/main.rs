@@ -330,7 +330,7 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
     #[cfg(feature = "remote")]
-    if let engine::SceneHandle::Remote(r) = &handle {
+    if let engine::SceneHandle::Remote(r, _) = &handle {
         println!(
             "read from a server with ranged requests: {} bytes, {} (pinned: every read asks for this version)",
             engine::ByteSource::len(r),

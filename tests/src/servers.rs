@@ -119,9 +119,9 @@ pub enum Fault {
 }
 
 /// A proxy on 127.0.0.1 in front of a server: answers each request as the
-/// next fault queued says (then [`Fault::Pass`]), each answer delayed by
-/// `delay` (half a round trip each way, as a far server would). Runs until
-/// the process ends.
+/// next fault queued says (then [`Fault::Pass`]), each answer `delay` late
+/// (a round-trip time added per request, as a far server's; a new
+/// connection's handshake is not delayed). Runs until the process ends.
 #[derive(Debug, Clone)]
 pub struct FaultProxy {
     /// The proxy's base URL.
@@ -134,7 +134,12 @@ pub struct FaultProxy {
 impl FaultProxy {
     /// Starts a proxy to `upstream_port`, each answer `delay` late.
     pub fn start(upstream_port: u16, delay: Duration) -> Self {
-        let listener = TcpListener::bind("127.0.0.1:0").expect("binds");
+        Self::start_on(0, upstream_port, delay)
+    }
+
+    /// The same on port `port` (0: any free one).
+    pub fn start_on(port: u16, upstream_port: u16, delay: Duration) -> Self {
+        let listener = TcpListener::bind(("127.0.0.1", port)).expect("binds");
         let port = listener.local_addr().expect("addr").port();
         let queue: Arc<Mutex<VecDeque<Fault>>> = Arc::default();
         let requests = Arc::new(AtomicU64::new(0));

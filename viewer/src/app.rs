@@ -229,14 +229,9 @@ impl App {
         self.selection = None;
         let size = (gfx.config.width, gfx.config.height);
         let budget = Some(self.args.budget.as_str());
-        match Session::open(
-            path,
-            &gfx.ctx,
-            self.settings,
-            budget,
-            size,
-            gfx.config.format,
-        ) {
+        let cache = self.args.disk_cache();
+        let place = (size, gfx.config.format, cache.as_ref());
+        match Session::open(path, &gfx.ctx, self.settings, budget, place) {
             Ok(sess) => {
                 let (min, max) = sess.bounds();
                 let aspect = size.0 as f32 / size.1.max(1) as f32;

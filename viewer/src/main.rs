@@ -113,9 +113,27 @@ pub struct Args {
     /// Overlay refreshes per second (it is cached in between; input refreshes it at once).
     #[arg(long, default_value_t = 2.0, value_parser = in_range(0.1f64, 1000.0))]
     pub overlay_hz: f64,
+    /// For a scene opened by URL: keep the bytes fetched in this folder, so
+    /// that the next visit of the same version reads them from disk.
+    #[arg(long, value_name = "DIR")]
+    pub disk_cache: Option<PathBuf>,
+    /// The disk cache's bound (B, KB, MB, GB, TB, KiB, MiB, GiB, TiB).
+    #[arg(long, default_value = "4GiB", value_parser = disk_size)]
+    pub disk_cache_size: u64,
+}
+
+fn disk_size(s: &str) -> Result<u64, String> {
+    engine_cli::parse_disk_size("--disk-cache-size", s).map_err(|e| e.to_string())
 }
 
 impl Args {
+    /// The disk cache for scenes opened by URL, if asked for.
+    pub fn disk_cache(&self) -> Option<engine::scene_handle::DiskCacheSpec> {
+        let dir = self.disk_cache.clone()?;
+        let max_bytes = self.disk_cache_size;
+        Some(engine::scene_handle::DiskCacheSpec { dir, max_bytes })
+    }
+
     /// The outputs named on the command line, checked before the window opens
     /// (a refused one is an error now, not after the walk): none may be the
     /// scene, the model or the path file, a link, or a device. Each is checked

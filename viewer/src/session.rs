@@ -63,11 +63,14 @@ impl Session {
         ctx: &GpuContext,
         mut settings: Settings,
         budget: Option<&str>,
-        size: (u32, u32),
-        color_format: wgpu::TextureFormat,
+        (size, color_format, cache): (
+            (u32, u32),
+            wgpu::TextureFormat,
+            Option<&engine::scene_handle::DiskCacheSpec>,
+        ),
     ) -> Result<Self> {
         let named = || path.display().to_string();
-        let handle = SceneHandle::open(path).with_context(named)?;
+        let handle = SceneHandle::open_cached(path, cache).with_context(named)?;
         let src = handle.raw().with_context(named)?;
         let scene = SceneFile::from_source(src).with_context(named)?;
         let skeleton = Arc::new(scene.skeleton().clone());

@@ -156,26 +156,7 @@ pub fn parse_size(option: &str, s: &str, data_bytes: u64, max_percent: f64) -> a
         }
         data_bytes as f64 * v / 100.0
     } else {
-        let (num, mult) = [
-            ("GiB", 1u64 << 30),
-            ("MiB", 1 << 20),
-            ("KiB", 1 << 10),
-            ("GB", 1_000_000_000),
-            ("MB", 1_000_000),
-            ("KB", 1000),
-            ("B", 1),
-        ]
-        .iter()
-        .find_map(|(suf, m)| t.strip_suffix(suf).map(|n| (n.trim(), *m)))
-        .unwrap_or((t, 1));
-        let v: f64 = match num.parse() {
-            Ok(v) => v,
-            Err(_) => bail!("{option} {s:?}: expected e.g. 25MiB or 2.5%"),
-        };
-        if !(v.is_finite() && v > 0.0) {
-            bail!("{option} {s:?} must be positive");
-        }
-        v * mult as f64
+        bytes_of(option, t)?
     };
     let limit = engine::limits::memory_total();
     if bytes > limit as f64 {
@@ -185,6 +166,41 @@ pub fn parse_size(option: &str, s: &str, data_bytes: u64, max_percent: f64) -> a
         );
     }
     Ok(bytes as u64)
+}
+
+/// A size on disk given to `option` (`--disk-cache-size`): bytes with
+/// B/KB/MB/GB/TB/KiB/MiB/GiB/TiB, positive, not bounded by memory.
+pub fn parse_disk_size(option: &str, s: &str) -> anyhow::Result<u64> {
+    let v = bytes_of(option, s.trim())?;
+    if v < 1.0 || v > (1u64 << 60) as f64 {
+        anyhow::bail!("{option} {s:?}: from 1 B to 1 EiB");
+    }
+    Ok(v as u64)
+}
+
+fn bytes_of(option: &str, t: &str) -> anyhow::Result<f64> {
+    let (num, mult) = [
+        ("TiB", 1u64 << 40),
+        ("GiB", 1 << 30),
+        ("MiB", 1 << 20),
+        ("KiB", 1 << 10),
+        ("TB", 1_000_000_000_000),
+        ("GB", 1_000_000_000),
+        ("MB", 1_000_000),
+        ("KB", 1000),
+        ("B", 1),
+    ]
+    .iter()
+    .find_map(|(suf, m)| t.strip_suffix(suf).map(|n| (n.trim(), *m)))
+    .unwrap_or((t, 1));
+    let v: f64 = match num.parse() {
+        Ok(v) => v,
+        Err(_) => anyhow::bail!("{option} {t:?}: expected e.g. 25MiB or 2.5%"),
+    };
+    if !(v.is_finite() && v > 0.0) {
+        anyhow::bail!("{option} {t:?} must be positive");
+    }
+    Ok(v * mult as f64)
 }
 
 /// [`parse_size`], or 0 for `0` / `off`.

@@ -293,3 +293,113 @@ fn network_faults_are_retried_or_reported_never_hung() {
     assert!(errors(&frames) > 0, "some reads failed for good");
     assert!(src.stats().requests > 0, "and others were served");
 }
+
+/// The `.blk` files under `dir` and their total size.
+fn cached_blocks(dir: &Path) -> (Vec<PathBuf>, u64) {
+    let mut files = Vec::new();
+    let mut total = 0;
+    for scene in std::fs::read_dir(dir).unwrap().flatten() {
+        for f in std::fs::read_dir(scene.path()).unwrap().flatten() {
+            if f.path().extension().is_some_and(|e| e == "blk") {
+                total += f.metadata().unwrap().len();
+                files.push(f.path());
+            }
+        }
+    }
+    files.sort();
+    (files, total)
+}
+
+#[test]
+fn a_second_walk_reads_from_the_disk_cache_and_nothing_from_the_network() {
+    use engine::scene_handle::DiskCacheSpec;
+    let dir = tempfile::tempdir().unwrap();
+    let served = dir.path().join("served");
+    std::fs::create_dir(&served).unwrap();
+    let local = plant(&served, "plant.hlod", 5);
+    let Some(nginx) = Nginx::start("remote::disk_cache", &served) else {
+        return;
+    };
+    let url = format!("{}/plant.hlod", nginx.base);
+    let spec = DiskCacheSpec {
+        dir: dir.path().join("cache"),
+        max_bytes: 1 << 30,
+    };
+    let skel = Arc::new(SceneFile::open(&local).unwrap().skeleton().clone());
+    let data: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
+    let poses = flythrough(&skel, 120);
+    let gets = || {
+        nginx
+            .access_log()
+            .iter()
+            .filter(|l| l.starts_with("GET "))
+            .count()
+    };
+    let visit = || {
+        let h = SceneHandle::open_cached(Path::new(&url), Some(&spec)).unwrap();
+        // Without prefetching what a walk reads depends on the path alone
+        // (prefetching also on timing: another run may look further ahead).
+        let frames = walk(
+            &skel,
+            h.source(None).unwrap(),
+            Mode::NoPre,
+            data / 20,
+            &poses,
+        );
+        assert_eq!(errors(&frames), 0);
+        (
+            h.network(),
+            frames.iter().map(|f| f.front_reps).collect::<Vec<_>>(),
+        )
+    };
+    let (first, fronts) = visit();
+    assert!(first.requests > 0, "{first:?}");
+    let asked = gets();
+    let (second, again) = visit();
+    assert_eq!(second.requests, 0, "{second:?}");
+    assert!(second.cache_hit_bytes > 0);
+    assert_eq!(gets(), asked, "no GET on the second visit (only its HEAD)");
+    assert_eq!(fronts, again);
+
+    // A damaged block is caught by its checksum and fetched again.
+    let (files, _) = cached_blocks(&spec.dir);
+    let mut b = std::fs::read(&files[0]).unwrap();
+    b[10] ^= 0x40;
+    std::fs::write(&files[0], &b).unwrap();
+    let (third, _) = visit();
+    assert!(third.requests >= 1, "{third:?}");
+
+    // A new version on the server: its own entry, never the old bytes.
+    let other = plant(dir.path(), "other.hlod", 9);
+    std::fs::rename(&other, &local).unwrap();
+    let h = SceneHandle::open_cached(Path::new(&url), Some(&spec)).unwrap();
+    let new = SceneFile::from_source(h.raw().unwrap()).unwrap();
+    let file = SceneFile::open(&local).unwrap();
+    assert_eq!(new.skeleton(), file.skeleton());
+    for r in 0..file.skeleton().reps.len() as u32 {
+        assert_eq!(
+            new.read_rep_bytes(r).unwrap(),
+            file.read_rep_bytes(r).unwrap()
+        );
+    }
+    assert!(h.network().requests > 0);
+    let entries = std::fs::read_dir(&spec.dir).unwrap().count();
+    assert_eq!(entries, 2, "one entry per version");
+
+    // Bounded: a small cache keeps within its size.
+    let small = DiskCacheSpec {
+        dir: dir.path().join("small"),
+        max_bytes: 300 << 10,
+    };
+    let h = SceneHandle::open_cached(Path::new(&url), Some(&small)).unwrap();
+    let skel = Arc::new(file.skeleton().clone());
+    walk(
+        &skel,
+        h.source(None).unwrap(),
+        Mode::Pre,
+        data / 20,
+        &flythrough(&skel, 60),
+    );
+    let (files, total) = cached_blocks(&small.dir);
+    assert!(!files.is_empty() && total <= small.max_bytes, "{total}");
+}

@@ -58,6 +58,13 @@ pub struct Args {
     /// file (the real file, page cache dropped), hdd, ssd, nvme, or LATENCY_MS:MB_PER_S.
     #[arg(long, default_value = "file")]
     pub disk: String,
+    /// For a scene given by URL: keep the bytes fetched in this folder, so
+    /// that the next run on the same version reads them from disk.
+    #[arg(long, value_name = "DIR")]
+    pub disk_cache: Option<PathBuf>,
+    /// The disk cache's bound (B, KB, MB, GB, TB, KiB, MiB, GiB, TiB).
+    #[arg(long, default_value = "4GiB")]
+    pub disk_cache_size: String,
     /// Frame pacing (0: as fast as possible).
     #[arg(long, default_value_t = 30.0, value_parser = zero_or_in(1.0f32, 1000.0))]
     pub fps: f32,

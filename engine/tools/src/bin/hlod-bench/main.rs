@@ -80,7 +80,15 @@ fn run(a: Args) -> Result<()> {
     // The scene is opened once and held for the whole run: every mode
     // reads the same file even if its path is replaced meanwhile.
     let scene_name = a.scene.display().to_string();
-    let handle = SceneHandle::open(&a.scene).with_context(|| scene_name.clone())?;
+    let cache = match &a.disk_cache {
+        Some(dir) => Some(engine::scene_handle::DiskCacheSpec {
+            dir: dir.clone(),
+            max_bytes: engine_cli::parse_disk_size("--disk-cache-size", &a.disk_cache_size)?,
+        }),
+        None => None,
+    };
+    let handle =
+        SceneHandle::open_cached(&a.scene, cache.as_ref()).with_context(|| scene_name.clone())?;
     let scene = SceneFile::from_source(handle.raw()?).with_context(|| scene_name.clone())?;
     let skel = Arc::new(scene.skeleton().clone());
     let interior = if a.path.is_none() && a.path_kind == "interior" {
@@ -268,6 +276,9 @@ fn run(a: Args) -> Result<()> {
     let mut quality = String::from("mode,budget_bytes,frame,psnr_db,substituted\n");
     let mut quality_rows: Vec<String> = Vec::new();
     let mut warnings = String::new();
+    let mut network = String::from(
+        "\n| run | requests | MiB fetched | KiB per request | failed reads | MiB from the disk cache |\n|---|---:|---:|---:|---:|---:|\n",
+    );
     let mut startup =
         String::from("\n| run | start-up ms | start-up MiB read |\n|---|---:|---:|\n");
     let runs = budgets
@@ -297,6 +308,7 @@ fn run(a: Args) -> Result<()> {
             occlusion_bytes: (f64::from(a.occlusion) * budget as f64) as u64,
             ..params
         };
+        let net0 = handle.network();
         let t0 = std::time::Instant::now();
         let mut walk = Walkthrough::start(skel.clone(), source, params)
             .with_context(|| format!("starting mode {}", mode.name()))?;
@@ -362,6 +374,15 @@ fn run(a: Args) -> Result<()> {
         })?;
         drop(walk);
         csv.finish()?;
+        let net = handle.network() - net0;
+        network.push_str(&format!(
+            "| {tag} | {} | {:.2} | {:.1} | {} | {:.2} |\n",
+            net.requests,
+            net.bytes as f64 / 1048576.0,
+            net.bytes as f64 / 1024.0 / net.requests.max(1) as f64,
+            net.failures,
+            net.cache_hit_bytes as f64 / 1048576.0
+        ));
         startup.push_str(&format!(
             "| {tag} | {start_ms:.0} | {:.2} |\n",
             warm_read as f64 / 1048576.0
@@ -444,6 +465,12 @@ fn run(a: Args) -> Result<()> {
         table.push_str(&format!(
             "\nStart-up ({} frames at the first pose before the path; in-core: loading every rep):\n{startup}",
             a.warmup
+        ));
+    }
+    if handle.is_remote() {
+        table.push_str(&format!(
+            "\nOver the network ({}; each run's requests, start-up included):\n{network}",
+            a.scene.display()
         ));
     }
     println!("\n{table}");

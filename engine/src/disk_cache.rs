@@ -1,0 +1,302 @@
+//! A persistent, bounded local cache of the bytes read from a remote scene
+//! (`--disk-cache DIR --disk-cache-size SIZE`), so that a second walk of the
+//! same scene reads nothing from the network.
+//!
+//! **Layout.** `DIR/KEY/` per scene version, `KEY` a hash of the URL, the
+//! length and the version pinned at open (ETag, else Last-Modified): a new
+//! version of the scene on the server has another key, so a stale entry is
+//! never read for it (`KEY/scene.txt` names the URL and version for people).
+//! In it, one file per aligned block of [`BLOCK`] bytes (`N.blk`: the bytes,
+//! then their CRC-32), written to a temporary name and renamed, so a block
+//! is whole or absent.
+//!
+//! **What is written** is only what the remote source returned for the
+//! pinned version (its length checked); **what is read** is checked against
+//! the block's CRC, and a block that fails (a damaged disk, a torn copy) is
+//! deleted and fetched again.
+//!
+//! **Bound.** The blocks of all scenes together stay within the size given;
+//! the least recently used go first (recency in this process; at start the
+//! oldest files first). Two processes sharing a folder keep their own count
+//! and may together exceed it until either starts again.
+
+use std::io;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+use lru::LruCache;
+
+use crate::io::ByteSource;
+use crate::remote::RemoteSource;
+
+/// Bytes per cached block: a miss fetches the aligned blocks around a read
+/// (at most two blocks more than asked).
+pub const BLOCK: u64 = 64 << 10;
+
+/// The cache folder and its bound, shared by every scene read through it.
+#[derive(Debug)]
+pub struct DiskCache {
+    dir: PathBuf,
+    max_bytes: u64,
+    state: Mutex<State>,
+}
+
+#[derive(Debug)]
+struct State {
+    /// Block files, least recently used first, with their sizes.
+    lru: LruCache<PathBuf, u64>,
+    total: u64,
+}
+
+impl DiskCache {
+    /// Opens (creating) the cache in `dir`, bounded to `max_bytes`; the
+    /// blocks already there count, oldest evicted first if over.
+    pub fn open(dir: &Path, max_bytes: u64) -> io::Result<Arc<Self>> {
+        std::fs::create_dir_all(dir)?;
+        let mut files = Vec::new();
+        for scene in std::fs::read_dir(dir)? {
+            let scene = scene?;
+            if !scene.file_type()?.is_dir() {
+                continue;
+            }
+            for f in std::fs::read_dir(scene.path())? {
+                let f = f?;
+                let p = f.path();
+                if p.extension().is_some_and(|e| e == "blk") {
+                    let m = f.metadata()?;
+                    files.push((m.modified().ok(), p, m.len()));
+                } else if p.extension().is_some_and(|e| e == "tmp") {
+                    let _ = std::fs::remove_file(&p); // a copy torn by a crash
+                }
+            }
+        }
+        files.sort();
+        let mut state = State {
+            lru: LruCache::unbounded(),
+            total: 0,
+        };
+        for (_, p, len) in files {
+            state.total += len;
+            state.lru.put(p, len);
+        }
+        let cache = Self {
+            dir: dir.to_path_buf(),
+            max_bytes,
+            state: Mutex::new(state),
+        };
+        cache.evict_to(max_bytes);
+        Ok(Arc::new(cache))
+    }
+
+    /// The bytes of all cached blocks (as this process counts them).
+    pub fn bytes(&self) -> u64 {
+        self.lock().total
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Deletes least recently used blocks until at most `room` bytes stay.
+    fn evict_to(&self, room: u64) {
+        let mut s = self.lock();
+        while s.total > room {
+            let Some((p, len)) = s.lru.pop_lru() else {
+                break;
+            };
+            s.total -= len;
+            let _ = std::fs::remove_file(p);
+        }
+    }
+
+    fn touch(&self, p: &Path) {
+        let _ = self.lock().lru.get(p);
+    }
+
+    fn forget(&self, p: &Path) {
+        let mut s = self.lock();
+        if let Some(len) = s.lru.pop(p) {
+            s.total -= len;
+        }
+        let _ = std::fs::remove_file(p);
+    }
+
+    /// Stores a block file (bytes and CRC), atomically, within the bound.
+    fn store(&self, p: &Path, data: &[u8]) {
+        let len = data.len() as u64 + 4;
+        if len > self.max_bytes {
+            return;
+        }
+        self.evict_to(self.max_bytes - len);
+        // A name of its own per writer (threads and processes).
+        static NEXT: AtomicU64 = AtomicU64::new(0);
+        let n = NEXT.fetch_add(1, Ordering::Relaxed);
+        let tmp = p.with_extension(format!("{}-{n}.tmp", std::process::id()));
+        let mut bytes = Vec::with_capacity(data.len() + 4);
+        bytes.extend_from_slice(data);
+        bytes.extend_from_slice(&crc32fast::hash(data).to_le_bytes());
+        let written = std::fs::write(&tmp, &bytes).and_then(|()| std::fs::rename(&tmp, p));
+        if written.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+            return; // a full disk: the read itself went through
+        }
+        let mut s = self.lock();
+        if let Some(old) = s.lru.put(p.to_path_buf(), len) {
+            s.total -= old;
+        }
+        s.total += len;
+    }
+}
+
+/// What a cached source served from where.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CacheStats {
+    /// Bytes served from cached blocks.
+    pub hit_bytes: u64,
+    /// Bytes fetched from the server (whole blocks).
+    pub fetched_bytes: u64,
+    /// Cached blocks that failed their check and were fetched again.
+    pub damaged: u64,
+}
+
+/// A remote scene read through a [`DiskCache`].
+#[derive(Debug, Clone)]
+pub struct CachedSource {
+    remote: RemoteSource,
+    cache: Arc<DiskCache>,
+    dir: PathBuf,
+    hit: Arc<AtomicU64>,
+    fetched: Arc<AtomicU64>,
+    damaged: Arc<AtomicU64>,
+}
+
+impl CachedSource {
+    /// `remote` through `cache`, in the folder of its URL and pinned version.
+    pub fn new(remote: RemoteSource, cache: Arc<DiskCache>) -> io::Result<Self> {
+        let id = format!("{}\n{}\n{}", remote.url(), remote.len(), remote.version());
+        let key = blake3::hash(id.as_bytes()).to_hex();
+        let dir = cache.dir.join(&key.as_str()[..32]);
+        std::fs::create_dir_all(&dir)?;
+        let note = dir.join("scene.txt");
+        if !note.exists() {
+            std::fs::write(&note, format!("{id}\n"))?;
+        }
+        Ok(Self {
+            remote,
+            cache,
+            dir,
+            hit: Arc::default(),
+            fetched: Arc::default(),
+            damaged: Arc::default(),
+        })
+    }
+
+    /// The remote source behind it.
+    pub fn remote(&self) -> &RemoteSource {
+        &self.remote
+    }
+
+    /// What it served so far (all clones together).
+    pub fn stats(&self) -> CacheStats {
+        CacheStats {
+            hit_bytes: self.hit.load(Ordering::Relaxed),
+            fetched_bytes: self.fetched.load(Ordering::Relaxed),
+            damaged: self.damaged.load(Ordering::Relaxed),
+        }
+    }
+
+    fn block_path(&self, i: u64) -> PathBuf {
+        self.dir.join(format!("{i}.blk"))
+    }
+
+    fn block_len(&self, i: u64) -> usize {
+        (self.remote.len() - i * BLOCK).min(BLOCK) as usize
+    }
+
+    /// Block `i` from the cache, checked; `None` when absent or damaged.
+    fn cached(&self, i: u64) -> Option<Vec<u8>> {
+        let p = self.block_path(i);
+        let mut bytes = std::fs::read(&p).ok()?;
+        let want = self.block_len(i);
+        let ok = bytes.len() == want + 4 && {
+            let crc = u32::from_le_bytes(bytes[want..].try_into().ok()?);
+            crc32fast::hash(&bytes[..want]) == crc
+        };
+        if !ok {
+            self.damaged.fetch_add(1, Ordering::Relaxed);
+            tracing::warn!("{}: a damaged cached block, fetched again", p.display());
+            self.cache.forget(&p);
+            return None;
+        }
+        self.cache.touch(&p);
+        bytes.truncate(want);
+        Some(bytes)
+    }
+}
+
+impl ByteSource for CachedSource {
+    fn len(&self) -> u64 {
+        self.remote.len()
+    }
+
+    fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
+        let total = self.len();
+        if offset
+            .checked_add(buf.len() as u64)
+            .is_none_or(|e| e > total)
+        {
+            return Err(io::Error::new(
+                io::ErrorKind::UnexpectedEof,
+                format!(
+                    "read of {} bytes at offset {offset} past the end ({total} bytes)",
+                    buf.len()
+                ),
+            ));
+        }
+        if buf.is_empty() {
+            return Ok(());
+        }
+        let end = offset + buf.len() as u64;
+        let (first, last) = (offset / BLOCK, (end - 1) / BLOCK);
+        let mut blocks: Vec<Option<Vec<u8>>> = (first..=last).map(|i| self.cached(i)).collect();
+        let was_cached: Vec<bool> = blocks.iter().map(Option::is_some).collect();
+        // Each run of missing blocks in one ranged request.
+        let mut k = 0;
+        while k < blocks.len() {
+            if blocks[k].is_some() {
+                k += 1;
+                continue;
+            }
+            let mut j = k;
+            while j + 1 < blocks.len() && blocks[j + 1].is_none() {
+                j += 1;
+            }
+            let (a, b) = (first + k as u64, first + j as u64);
+            let from = a * BLOCK;
+            let to = ((b + 1) * BLOCK).min(total);
+            let mut got = vec![0u8; (to - from) as usize];
+            self.remote.read_at(from, &mut got)?;
+            self.fetched.fetch_add(got.len() as u64, Ordering::Relaxed);
+            for (n, chunk) in got.chunks(BLOCK as usize).enumerate() {
+                self.cache.store(&self.block_path(a + n as u64), chunk);
+                blocks[k + n] = Some(chunk.to_vec());
+            }
+            k = j + 1;
+        }
+        let mut hit = 0u64;
+        for (n, block) in blocks.iter().enumerate() {
+            let block = block.as_ref().expect("every block cached or fetched");
+            let start = (first + n as u64) * BLOCK;
+            let lo = offset.max(start);
+            let hi = end.min(start + block.len() as u64);
+            buf[(lo - offset) as usize..(hi - offset) as usize]
+                .copy_from_slice(&block[(lo - start) as usize..(hi - start) as usize]);
+            if was_cached[n] {
+                hit += hi - lo;
+            }
+        }
+        self.hit.fetch_add(hit, Ordering::Relaxed);
+        Ok(())
+    }
+}
