@@ -202,9 +202,13 @@ fn serve_conn(
     queue: &Mutex<VecDeque<Fault>>,
     requests: &AtomicU64,
 ) -> std::io::Result<()> {
+    // No Nagle: a head and a body written apart would wait for the
+    // client's delayed ACK (40 ms per answer).
+    client.set_nodelay(true)?;
     let mut reader = BufReader::new(client.try_clone()?);
     let mut client = client;
     let upstream = TcpStream::connect(("127.0.0.1", upstream_port))?;
+    upstream.set_nodelay(true)?;
     let mut up_reader = BufReader::new(upstream.try_clone()?);
     let mut upstream = upstream;
     while let Some(head) = read_head(&mut reader)? {
@@ -252,12 +256,17 @@ fn serve_conn(
             out.push_str("\r\n");
         }
         out.push_str("\r\n");
-        client.write_all(out.as_bytes())?;
+        let mut answer = out.into_bytes();
+        let sent = if fault == Fault::ShortBody {
+            len / 2
+        } else {
+            len
+        };
+        answer.extend_from_slice(&body[..sent]);
+        client.write_all(&answer)?;
         if fault == Fault::ShortBody {
-            client.write_all(&body[..len / 2])?;
             return Ok(());
         }
-        client.write_all(&body)?;
     }
     Ok(())
 }

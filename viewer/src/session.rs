@@ -233,6 +233,12 @@ fn start_walk(t: &Target<'_>, s: &Settings) -> Result<Walkthrough> {
     let params = RuntimeParams {
         mode: s.mode,
         budget_bytes,
+        // Over a network: neighbouring reps by pages, one request each.
+        page_bytes: if t.handle.is_remote() && s.params.page_bytes == 0 {
+            engine::runtime::REMOTE_PAGE_BYTES
+        } else {
+            s.params.page_bytes
+        },
         occlusion_bytes: if s.occlusion {
             occluder_share(budget_bytes, t.skel.full_detail_bytes())
         } else {

@@ -53,6 +53,12 @@ use crate::render::{DrawStyle, Fade, Renderer};
 use crate::skeleton::{RepId, Skeleton};
 pub use params::{Mode, PrefetchParams, RuntimeError, RuntimeParams};
 
+/// The page size for scenes read over a network (`hlod-bench --page auto`,
+/// `hlod-view`): every request pays the round trip, so P_I reads the
+/// neighbours of a small rep with it, under the footprint (measured in
+/// docs/results.md, "Scenes over HTTP").
+pub const REMOTE_PAGE_BYTES: u64 = 128 << 10;
+
 /// P_R → P_I.
 enum Cmd {
     Fetch {

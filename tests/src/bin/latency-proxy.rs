@@ -15,7 +15,11 @@ fn main() {
             .parse::<u16>()
             .ok()
             .zip(server.parse::<u16>().ok())
-            .zip(rtt.parse::<f64>().ok().filter(|r| r.is_finite() && *r >= 0.0)),
+            .zip(
+                rtt.parse::<f64>()
+                    .ok()
+                    .filter(|r| r.is_finite() && *r >= 0.0),
+            ),
         _ => None,
     };
     let Some(((listen, server), rtt)) = parsed else {
@@ -27,7 +31,10 @@ fn main() {
         server,
         Duration::from_secs_f64(rtt / 1e3),
     );
-    println!("latency-proxy: {} -> 127.0.0.1:{server}, {rtt} ms per request", p.base);
+    println!(
+        "latency-proxy: {} -> 127.0.0.1:{server}, {rtt} ms per request",
+        p.base
+    );
     loop {
         std::thread::park();
     }

@@ -146,16 +146,17 @@ impl PageCache {
 }
 
 impl Loader {
-    /// Whether pages are asked for and a seek costs at least a page's
-    /// transfer (learnt).
+    /// Whether pages are asked for and a seek, or a request's fixed cost
+    /// (a network's round trip), costs at least a page's transfer (learnt).
     fn paging(&self) -> bool {
         let p = self.params.page_bytes;
         p > 0
             && self.params.mode != Mode::Incore
-            && self
+            && (self
                 .costs
                 .max_gap(self.params.coalesce_max_gap.max(p), 64 << 10)
                 >= p
+                || self.costs.request_bytes() >= p)
     }
 
     /// Decides, once a frame, whether reads go by pages and the pages'

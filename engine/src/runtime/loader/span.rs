@@ -157,6 +157,19 @@ impl IoCosts {
             cap
         }
     }
+
+    /// The bytes whose transfer costs what one more read costs: its fixed
+    /// cost and its seek. On a disk that is the seek's break-even; over a
+    /// network every request pays the round trip, sequential or not (the
+    /// fixed cost), so one larger read (a page) beats several small ones.
+    /// 0 until a transfer rate has been seen.
+    pub(super) fn request_bytes(&self) -> u64 {
+        if self.per_byte_s <= 0.0 {
+            return 0;
+        }
+        let g = (self.seek_s + self.overhead_s) / self.per_byte_s;
+        if g.is_finite() { g as u64 } else { u64::MAX }
+    }
 }
 
 /// A prefetch read that a fetch command preempted: the bytes read so far.

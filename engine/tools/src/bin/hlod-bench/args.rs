@@ -130,10 +130,11 @@ pub struct Args {
     /// break-even gap is learnt; this caps it); 0 turns coalescing off.
     #[arg(long, default_value = "1MiB")]
     pub coalesce_gap: String,
-    /// Reads by pages of this size (e.g. 128KiB) where a seek costs at
-    /// least a page's transfer (learnt; a fast disk never does); 0 (the
-    /// default) turns pages off.
-    #[arg(long, default_value = "0")]
+    /// Reads by pages of this size (e.g. 128KiB) where a seek or a
+    /// request costs at least a page's transfer (learnt; a fast disk never
+    /// does); 0 turns pages off; auto (the default): 128KiB for a scene
+    /// given by URL, else off.
+    #[arg(long, default_value = "auto")]
     pub page: String,
     /// The share of the budget that pages may take from prefetching.
     #[arg(long, default_value_t = 0.25, value_parser = in_range(0.0f32, 0.9))]

@@ -117,7 +117,14 @@ fn run(a: Args) -> Result<()> {
     let data_bytes = skel.in_core_bytes();
     let vdt_pool = parse_size("--vdt-pool", &a.vdt_pool, data_bytes, 100.0)?;
     let coalesce_gap = size_or_off("--coalesce-gap", &a.coalesce_gap, data_bytes)?;
-    let page_bytes = size_or_off("--page", &a.page, data_bytes)?;
+    let page_bytes = match a.page.trim() {
+        // Over a network every request pays the round trip: pages of
+        // neighbouring reps in one request (P_I turns them on when the
+        // learnt request cost is worth a page's transfer).
+        "auto" if handle.is_remote() => engine::runtime::REMOTE_PAGE_BYTES,
+        "auto" => 0,
+        p => size_or_off("--page", p, data_bytes)?,
+    };
     let sweep_bytes = u32::try_from(size_or_off("--sweep", &a.sweep, data_bytes)?)
         .context("--sweep: at most 4 GiB")?;
     let budgets: Vec<u64> = match &a.budgets {

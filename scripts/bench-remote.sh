@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# A scene walked over HTTP (not in CI): nginx serves the scene's folder (scripts/serve.sh),
+# latency-proxy adds a round-trip time per request in front of it (this kernel has no netem),
+# and hlod-bench walks each path kind from the local file (incore, nopre, pre), then nopre and pre over
+# HTTP at each RTT, then twice through a disk cache at the last RTT (the first visit fills
+# it, the second reads from it). Tables go to out/remote/NAME/; summary.md gathers them.
+# Usage: scripts/bench-remote.sh SCENE BUDGET [PATH-KINDS] [RTTS-MS] [FRAMES] [hlod-bench options…]
+#   scripts/bench-remote.sh de2.hlod 7.5% flythrough,approach-orbit 0,20,50,100 300
+#   scripts/bench-remote.sh schep10.hlod 2.5% flythrough,approach-orbit 0,20,50,100 300 --occlusion 0.1
+set -euo pipefail
+cd "$(dirname "$0")/.."
+[ $# -ge 2 ] || { sed -n 2,9p "$0" >&2; exit 2; }
+scene=$(realpath "$1")
+budget=$2
+kinds=${3:-flythrough,approach-orbit}
+rtts=${4:-0,20,50,100}
+frames=${5:-300}
+extra=("${@:6}")
+name=$(basename "$scene" .hlod)
+out="out/remote/${OUT_NAME:-$name}"
+mkdir -p "$out"
+cargo build --release -q -p engine-tools --bin hlod-bench -p e2e-tests --bin latency-proxy
+port=$((18000 + RANDOM % 1000))
+bash scripts/serve.sh "$(dirname "$scene")" "$port" > "$out/serve.log" 2>&1 &
+pids=($!)
+trap 'kill "${pids[@]}" 2>/dev/null || true' EXIT
+for _ in $(seq 50); do
+  curl -sf -o /dev/null -r 0-0 "http://127.0.0.1:$port/$(basename "$scene")" && break
+  sleep 0.1
+done
+IFS=, read -ra kind_list <<< "$kinds"
+IFS=, read -ra rtt_list <<< "$rtts"
+for r in "${rtt_list[@]}"; do
+  target/release/latency-proxy $((port + 1000 + r)) "$port" "$r" > /dev/null &
+  pids+=($!)
+done
+sleep 0.5
+bench() { target/release/hlod-bench "$@" --budget "$budget" --frames "$frames" "${extra[@]}"; }
+summary="$out/summary.md"
+echo "# $name over HTTP at $budget, $frames frames, options: ${extra[*]:-none}" > "$summary"
+for kind in "${kind_list[@]}"; do
+  bench "$scene" --path-kind "$kind" --modes incore,nopre,pre --out "$out/$kind/local" > /dev/null
+  { echo; echo "## $kind: the local file"; cat "$out/$kind/local/summary.md"; } >> "$summary"
+  for r in "${rtt_list[@]}"; do
+    url="http://127.0.0.1:$((port + 1000 + r))/$(basename "$scene")"
+    bench "$url" --path-kind "$kind" --modes nopre,pre --out "$out/$kind/rtt$r" > /dev/null
+    { echo; echo "## $kind: RTT $r ms"; cat "$out/$kind/rtt$r/summary.md"; } >> "$summary"
+  done
+  r=${rtt_list[-1]}
+  url="http://127.0.0.1:$((port + 1000 + r))/$(basename "$scene")"
+  rm -rf "$out/$kind/cache-dir"
+  for visit in first second; do
+    bench "$url" --path-kind "$kind" --modes pre --disk-cache "$out/$kind/cache-dir" \
+      --out "$out/$kind/cache-$visit" > /dev/null
+    { echo; echo "## $kind: RTT $r ms, disk cache, $visit visit"; cat "$out/$kind/cache-$visit/summary.md"; } >> "$summary"
+  done
+  rm -rf "$out/$kind/cache-dir"
+done
+echo "bench-remote: $summary"
