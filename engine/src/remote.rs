@@ -234,11 +234,14 @@ impl RemoteSource {
                 self.version()
             );
         }
-        io::Error::other(format!(
-            "{}: the scene changed on the server since it was opened ({})",
-            self.inner.url,
-            self.version()
-        ))
+        io::Error::new(
+            io::ErrorKind::StaleNetworkFileHandle,
+            format!(
+                "{}: the scene changed on the server since it was opened ({})",
+                self.inner.url,
+                self.version()
+            ),
+        )
     }
 
     async fn get(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {

@@ -21,6 +21,7 @@ mod pages;
 mod plan;
 #[cfg(test)]
 mod plan_tests;
+mod retry;
 mod span;
 mod sweep;
 
@@ -46,6 +47,7 @@ pub(super) use outbox::capacity as reply_capacity;
 use pacing::Pacing;
 use pages::PageCache;
 use plan::Plan;
+use retry::Retry;
 use span::{FileOrder, IoCosts, Partial, preempted};
 use sweep::Sweep;
 
@@ -79,8 +81,8 @@ pub(super) struct Loader {
     /// The resident reps, their bytes, pins and the eviction rule.
     res: ResidentSet,
     failed: Vec<bool>,
-    /// Reps that failed to load in this walk (for the warnings' pace).
-    failures: u32,
+    /// When failed reps are tried again (a network or device error).
+    retry: Retry,
     stats: LoaderCounters,
     /// The planners: the binned candidates (CLASSIFY), the fronts ahead,
     /// the sweep through small reps, and the late reads of this frame.
@@ -135,7 +137,7 @@ impl Loader {
                     .collect(),
             ),
             failed: pools.iter().map(|&p| p == super::trees::UNUSABLE).collect(),
-            failures: 0,
+            retry: Retry::default(),
             skeleton,
             index,
             source,
@@ -348,6 +350,9 @@ impl Loader {
 
     /// Stage II for one front, and the reps P_R draws fading out.
     fn fetch(&mut self, front: &[RepId], fading: &[RepId]) -> Result<(), RendererGone> {
+        for r in self.retry.release(self.clock.now()) {
+            self.failed[r as usize] = false;
+        }
         self.res.start_stage2(front);
         self.plan_pages();
         // Fading out: drawn first, pinned for the frame (the footprint
@@ -555,7 +560,7 @@ impl Loader {
                 .read_at(rec.offset + done as u64, &mut buf[done..end])
             {
                 self.res.release(len);
-                return Err(self.fail(r, &e.to_string()));
+                return Err(self.fail(r, &e.to_string(), retry::transient(e.kind())));
             }
             let took = self.clock.now() - t;
             self.observe(rec.offset + done as u64, end - done, took, purpose);
@@ -576,7 +581,7 @@ impl Loader {
         }
         if let Err(e) = check_rep_crc(r, &rec, &buf[..rec.len as usize]) {
             self.res.release(len);
-            return Err(self.fail(r, &e.to_string()));
+            return Err(self.fail(r, &e.to_string(), false));
         }
         let payload: Arc<[u8]> = if scratch == 0 {
             buf.into()
@@ -586,7 +591,7 @@ impl Loader {
                 Ok(p) => Arc::<[u8]>::from(&*p),
                 Err(e) => {
                     self.res.release(len);
-                    return Err(self.fail(r, &e.to_string()));
+                    return Err(self.fail(r, &e.to_string(), false));
                 }
             };
             self.stats.expand_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
@@ -597,16 +602,16 @@ impl Loader {
         };
         let speculative = purpose == Purpose::Prefetch && !self.is_late(r);
         self.res.insert(r, payload.clone(), speculative);
+        self.retry.succeeded();
         Ok(payload)
     }
 
-    fn fail(&mut self, r: RepId, why: &str) -> LoadError {
+    fn fail(&mut self, r: RepId, why: &str, transient: bool) -> LoadError {
         self.failed[r as usize] = true;
         self.stats.read_errors += 1;
-        self.failures = self.failures.saturating_add(1);
+        let n = self.retry.failed(r, self.clock.now(), transient);
         // One warning, then one at each power of two: a server gone or a
         // file replaced fails every read that follows, not worth a line each.
-        let n = self.failures;
         if n.is_power_of_two() {
             tracing::warn!(
                 "rep {r} cannot be loaded ({why}); its nearest resident ancestor is drawn instead{}",

@@ -403,3 +403,57 @@ fn a_second_walk_reads_from_the_disk_cache_and_nothing_from_the_network() {
     let (files, total) = cached_blocks(&small.dir);
     assert!(!files.is_empty() && total <= small.max_bytes, "{total}");
 }
+
+#[test]
+fn reps_that_failed_while_the_server_was_down_are_read_once_it_is_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let local = plant(dir.path(), "plant.hlod", 5);
+    let Some(nginx) = Nginx::start("remote::server_back", dir.path()) else {
+        return;
+    };
+    let proxy = FaultProxy::start(nginx.port, Duration::ZERO);
+    let url = format!("{}/plant.hlod", proxy.base);
+    let skel = Arc::new(SceneFile::open(&local).unwrap().skeleton().clone());
+    let data: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
+    let poses = flythrough(&skel, 240);
+    // Without prefetching the walk is the same at any pace: a clean walk
+    // from the file is the reference.
+    let clean = walk(
+        &skel,
+        Arc::new(FileSource::open(&local).unwrap()),
+        Mode::NoPre,
+        data / 20,
+        &poses,
+    );
+    let src = RemoteSource::open(&url, &fast_options()).unwrap();
+    let params = RuntimeParams {
+        mode: Mode::NoPre,
+        budget_bytes: data / 20,
+        tolerance_px: 1.0,
+        ..RuntimeParams::default()
+    };
+    let mut w = Walkthrough::start(skel.clone(), Arc::new(src), params).unwrap();
+    // Down for 40 requests (ten reads, each tried four times), then back.
+    proxy.push(&[Fault::Status(503); 40]);
+    // In real time (30 fps, 8 s): the failed reps are tried again after
+    // their backoff (at most 4 s).
+    let frames = run_path(&mut w, &poses, &mut NoneRenderer::new(0.0), 30.0).unwrap();
+    assert!(
+        errors(&frames) > 0,
+        "reads failed while the server was down"
+    );
+    for f in &frames {
+        assert!(
+            f.loader.max_resident_bytes <= data / 20,
+            "frame {}",
+            f.frame
+        );
+    }
+    assert_eq!(errors(&frames[180..]), 0);
+    let subst = |f: &[FrameMetrics]| f.iter().map(|m| m.substituted).collect::<Vec<_>>();
+    assert_eq!(
+        subst(&frames[180..]),
+        subst(&clean[180..]),
+        "every rep lost to the outage is drawn again"
+    );
+}
