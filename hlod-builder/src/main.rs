@@ -34,6 +34,8 @@ enum Cmd {
     Build(build_cmd::BuildArgs),
     /// Print a scene file's summary and validate it.
     Info {
+        /// Scene file, or its URL (http://, https://, s3://BUCKET/KEY; S3
+        /// credentials from the AWS_* variables).
         file: PathBuf,
         /// Skip reading and checking every rep payload (header and skeleton only).
         #[arg(long)]

@@ -36,9 +36,11 @@ use clap::Parser;
     about = "Walk through an out-of-core HLOD scene"
 )]
 pub struct Args {
-    /// Scene file (`hlod-build build` output), or a glTF model (`.glb`,
-    /// `.gltf`) which is built into the cache first (reused while the model
-    /// and the build parameters are unchanged); can also be opened from the overlay.
+    /// Scene file (`hlod-build build` output) or its URL (http://, https://,
+    /// s3://BUCKET/KEY; S3 credentials from the AWS_* variables), or a glTF
+    /// model (`.glb`, `.gltf`) which is built into the cache first (reused
+    /// while the model and the build parameters are unchanged); can also be
+    /// opened from the overlay.
     pub scene: Option<PathBuf>,
     /// Build cache directory for models opened directly (default:
     /// $HLOD_CACHE_DIR, else $XDG_CACHE_HOME/hlod, else ~/.cache/hlod, else

@@ -12,6 +12,8 @@ use engine_cli::{in_range, zero_or_in};
     about = "Walk a camera path through a scene in-core and out-of-core"
 )]
 pub struct Args {
+    /// Scene file, or its URL (http://, https://, s3://BUCKET/KEY; S3
+    /// credentials from the AWS_* variables).
     pub scene: PathBuf,
     /// Camera path file (default: the scene's generated fly-through).
     #[arg(long)]
