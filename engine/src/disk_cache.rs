@@ -241,19 +241,7 @@ impl ByteSource for CachedSource {
     }
 
     fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
-        let total = self.len();
-        if offset
-            .checked_add(buf.len() as u64)
-            .is_none_or(|e| e > total)
-        {
-            return Err(io::Error::new(
-                io::ErrorKind::UnexpectedEof,
-                format!(
-                    "read of {} bytes at offset {offset} past the end ({total} bytes)",
-                    buf.len()
-                ),
-            ));
-        }
+        crate::io::check_range(offset, buf.len(), self.len())?;
         if buf.is_empty() {
             return Ok(());
         }
@@ -274,7 +262,7 @@ impl ByteSource for CachedSource {
             }
             let (a, b) = (first + k as u64, first + j as u64);
             let from = a * BLOCK;
-            let to = ((b + 1) * BLOCK).min(total);
+            let to = ((b + 1) * BLOCK).min(self.len());
             let mut got = vec![0u8; (to - from) as usize];
             self.remote.read_at(from, &mut got)?;
             self.fetched.fetch_add(got.len() as u64, Ordering::Relaxed);

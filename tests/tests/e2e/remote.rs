@@ -45,6 +45,25 @@ fn flythrough(skel: &Skeleton, frames: usize) -> Vec<Pose> {
     )
 }
 
+fn params(mode: Mode, budget: u64) -> RuntimeParams {
+    RuntimeParams {
+        mode,
+        budget_bytes: budget,
+        tolerance_px: 1.0,
+        ..RuntimeParams::default()
+    }
+}
+
+/// A plant built into a temporary folder as `plant.hlod` and served there
+/// by nginx, or `None` (the skip recorded) without nginx.
+fn served_plant(test: &str) -> Option<(tempfile::TempDir, PathBuf, Nginx, String)> {
+    let dir = tempfile::tempdir().unwrap();
+    let local = plant(dir.path(), "plant.hlod", 5);
+    let nginx = Nginx::start(test, dir.path())?;
+    let url = format!("{}/plant.hlod", nginx.base);
+    Some((dir, local, nginx, url))
+}
+
 /// Walks `source` in `mode` under `budget`, checking every frame: the
 /// footprint within the budget, every front rep drawn as itself or an
 /// ancestor.
@@ -55,13 +74,7 @@ fn walk(
     budget: u64,
     poses: &[Pose],
 ) -> Vec<FrameMetrics> {
-    let params = RuntimeParams {
-        mode,
-        budget_bytes: budget,
-        tolerance_px: 1.0,
-        ..RuntimeParams::default()
-    };
-    let mut w = Walkthrough::start(skel.clone(), source, params).unwrap();
+    let mut w = Walkthrough::start(skel.clone(), source, params(mode, budget)).unwrap();
     let frames = run_path(&mut w, poses, &mut NoneRenderer::new(0.0), 0.0).unwrap();
     for f in &frames {
         assert!(
@@ -97,12 +110,9 @@ fn fast_options() -> RemoteOptions {
 
 #[test]
 fn a_scene_on_nginx_reads_and_walks_as_the_local_file() {
-    let dir = tempfile::tempdir().unwrap();
-    let local = plant(dir.path(), "plant.hlod", 5);
-    let Some(nginx) = Nginx::start("remote::reads_and_walks", dir.path()) else {
+    let Some((_dir, local, nginx, url)) = served_plant("remote::reads_and_walks") else {
         return;
     };
-    let url = format!("{}/plant.hlod", nginx.base);
     let handle = SceneHandle::open(Path::new(&url)).unwrap();
     assert!(handle.is_remote());
     let remote = SceneFile::from_source(handle.raw().unwrap()).unwrap();
@@ -152,22 +162,14 @@ fn a_scene_on_nginx_reads_and_walks_as_the_local_file() {
 
 #[test]
 fn a_scene_replaced_on_the_server_is_not_read_against_the_old_skeleton() {
-    let dir = tempfile::tempdir().unwrap();
-    let local = plant(dir.path(), "plant.hlod", 5);
-    let Some(nginx) = Nginx::start("remote::replaced", dir.path()) else {
+    let Some((dir, local, nginx, url)) = served_plant("remote::replaced") else {
         return;
     };
-    let url = format!("{}/plant.hlod", nginx.base);
     let src = RemoteSource::open(&url, &fast_options()).unwrap();
     let skel = Arc::new(SceneFile::open(&local).unwrap().skeleton().clone());
     let data: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
     let budget = data / 10;
-    let params = RuntimeParams {
-        mode: Mode::Pre,
-        budget_bytes: budget,
-        tolerance_px: 1.0,
-        ..RuntimeParams::default()
-    };
+    let params = params(Mode::Pre, budget);
     let poses = flythrough(&skel, 120);
     let mut w = Walkthrough::start(skel.clone(), Arc::new(src.clone()), params).unwrap();
     let mut none = NoneRenderer::new(0.0);
@@ -208,9 +210,7 @@ fn a_scene_replaced_on_the_server_is_not_read_against_the_old_skeleton() {
 
 #[test]
 fn network_faults_are_retried_or_reported_never_hung() {
-    let dir = tempfile::tempdir().unwrap();
-    let local = plant(dir.path(), "plant.hlod", 5);
-    let Some(nginx) = Nginx::start("remote::faults", dir.path()) else {
+    let Some((_dir, local, nginx, _)) = served_plant("remote::faults") else {
         return;
     };
     let bytes = std::fs::read(&local).unwrap();
@@ -406,9 +406,7 @@ fn a_second_walk_reads_from_the_disk_cache_and_nothing_from_the_network() {
 
 #[test]
 fn reps_that_failed_while_the_server_was_down_are_read_once_it_is_back() {
-    let dir = tempfile::tempdir().unwrap();
-    let local = plant(dir.path(), "plant.hlod", 5);
-    let Some(nginx) = Nginx::start("remote::server_back", dir.path()) else {
+    let Some((_dir, local, nginx, _)) = served_plant("remote::server_back") else {
         return;
     };
     let proxy = FaultProxy::start(nginx.port, Duration::ZERO);
@@ -426,12 +424,7 @@ fn reps_that_failed_while_the_server_was_down_are_read_once_it_is_back() {
         &poses,
     );
     let src = RemoteSource::open(&url, &fast_options()).unwrap();
-    let params = RuntimeParams {
-        mode: Mode::NoPre,
-        budget_bytes: data / 20,
-        tolerance_px: 1.0,
-        ..RuntimeParams::default()
-    };
+    let params = params(Mode::NoPre, data / 20);
     let mut w = Walkthrough::start(skel.clone(), Arc::new(src), params).unwrap();
     // Down for 40 requests (ten reads, each tried four times), then back.
     proxy.push(&[Fault::Status(503); 40]);
