@@ -19,6 +19,8 @@ python3 -c "import venv, ensurepip" >/dev/null 2>&1 || need+=(python3-venv)
 # Node and npm for gltfpack and gltf-transform (the re-encoding corpus test).
 command -v node >/dev/null 2>&1 || need+=(nodejs)
 command -v npm >/dev/null 2>&1 || need+=(npm)
+# Headless Chromium for the web viewer's browser test (3D Tiles export).
+has_pkg chromium || need+=(chromium)
 # A virtual display for the viewer's window test.
 command -v xvfb-run >/dev/null 2>&1 || need+=(xvfb)
 command -v xauth >/dev/null 2>&1 || need+=(xauth)
@@ -72,4 +74,34 @@ if ! "$moto/bin/python" -c "import moto, boto3, sys; sys.exit(moto.__version__ !
   rm -rf "$moto"
   python3 -m venv "$moto"
   "$moto/bin/python" -m pip install -q --disable-pip-version-check "moto[server]==$MOTO"
+fi
+
+# The web viewer's libraries (three.js, 3DTilesRendererJS) and playwright-core,
+# which drives Chromium in the browser test: in target/web, as pinned by
+# viewer/web/package-lock.json.
+web="$(cd "$(dirname "$0")/.." && pwd)/target/web"
+lock="$(cd "$(dirname "$0")/.." && pwd)/viewer/web/package-lock.json"
+if ! cmp -s "$lock" "$web/package-lock.json" || ! [ -d "$web/node_modules/3d-tiles-renderer" ]; then
+  echo "setup: installing the web viewer's libraries in target/web"
+  rm -rf "$web"
+  mkdir -p "$web"
+  cp "$(dirname "$lock")/package.json" "$lock" "$web/"
+  (cd "$web" && npm ci --silent --no-audit --no-fund)
+fi
+
+# The official 3D Tiles validator (CesiumGS' 3d-tiles-validator 0.6.1) for the
+# export test: not on the npm registry, so it is installed from the prebuilt
+# copy beside the project (../shared/tools, or HLOD_3DTILES_VALIDATOR_SRC), its
+# dependencies from the registry, in target/3d-tiles-validator.
+val="$(cd "$(dirname "$0")/.." && pwd)/target/3d-tiles-validator"
+src=${HLOD_3DTILES_VALIDATOR_SRC:-$(cd "$(dirname "$0")/.." && pwd)/../shared/tools/3d-tiles-validator}
+if ! [ -f "$val/build/main.js" ] || ! [ -d "$val/node_modules/3d-tiles-tools" ]; then
+  if [ -f "$src/package.json" ]; then
+    echo "setup: installing the 3D Tiles validator in target/3d-tiles-validator"
+    rm -rf "$val"
+    cp -r "$src" "$val"
+    (cd "$val" && npm ci --omit=dev --silent --no-audit --no-fund)
+  else
+    echo "setup: no 3D Tiles validator at $src: the export test will be skipped (set HLOD_3DTILES_VALIDATOR_SRC)"
+  fi
 fi

@@ -39,6 +39,10 @@ if [ "$(id -u)" = 0 ]; then export HLOD_REQUIRE_SLURM=1; fi
 export HLOD_REQUIRE_MOTO=1
 # And nginx, for the scenes read over HTTP.
 export HLOD_REQUIRE_NGINX=1
+# And Chromium with the web viewer's libraries, for the 3D Tiles browser test;
+# the validator whenever setup found its prebuilt copy.
+export HLOD_REQUIRE_BROWSER=1
+if [ -f target/3d-tiles-validator/build/main.js ]; then export HLOD_REQUIRE_3DTILES=1; fi
 mkdir -p target && rm -f target/test-skips.txt
 cargo test --workspace
 if [ -s target/test-skips.txt ]; then

@@ -15,6 +15,7 @@
 //!   order), so that the reps one frame misses are read without seeks.
 //! - [`heap`]: the counted heap a build is sized and checked by.
 //! - [`summary`]: the Table-1-style summary printed by `build` and `info`.
+//! - [`tiles3d`]: export of a scene file as an OGC 3D Tiles 1.1 tileset.
 
 pub mod build;
 pub mod cache;
@@ -28,6 +29,7 @@ pub mod mesh;
 pub mod mt;
 pub mod scenegen;
 pub mod summary;
+pub mod tiles3d;
 pub mod vdt;
 
 pub use build::{BuildError, BuildParams, BuildStats, build_file};

@@ -66,6 +66,22 @@ enum Cmd {
         #[arg(required = true)]
         shards: Vec<PathBuf>,
     },
+    /// Export a scene file as an OGC 3D Tiles 1.1 tileset (tileset.json,
+    /// one .glb per rep), for CesiumJS, 3DTilesRendererJS and other 3D Tiles
+    /// viewers; a viewer's screen-space error target means what ε means
+    /// here. Written atomically: OUTPUT is replaced only when complete.
+    #[command(name = "export-3dtiles")]
+    Export3dTiles {
+        /// Scene file.
+        scene: PathBuf,
+        /// Output folder (absent, empty, or an earlier export).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Most tiles in one JSON file; larger subtrees become external
+        /// tilesets.
+        #[arg(long, default_value_t = 10_000)]
+        max_tiles_per_json: usize,
+    },
     /// Generate a glTF scene.
     #[command(subcommand)]
     Gen(GenCmd),
@@ -196,6 +212,36 @@ fn run(cli: Cli) -> Result<()> {
             };
             hlod_builder::layout::relayout_file(&input, &output, payloads)?;
             println!("{} -> {}", input.display(), output.display());
+            Ok(())
+        }
+        Cmd::Export3dTiles {
+            scene,
+            output,
+            max_tiles_per_json,
+        } => {
+            let t = std::time::Instant::now();
+            let opts = hlod_builder::tiles3d::ExportOptions { max_tiles_per_json };
+            let r = hlod_builder::tiles3d::export(&scene, &output, opts)?;
+            let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+            println!(
+                "{} -> {}: {} tiles, {} .glb ({:.1} MiB; {} name their elements), {} JSON files ({:.2} MiB, largest {:.2} MiB) in {:.1} s",
+                scene.display(),
+                output.display(),
+                r.tiles,
+                r.contents,
+                mib(r.content_bytes),
+                r.contents_with_elements,
+                r.json_files,
+                mib(r.json_bytes),
+                mib(r.largest_json_bytes),
+                t.elapsed().as_secs_f64()
+            );
+            if r.paged_reps_skipped > 0 {
+                eprintln!(
+                    "warning: {} view-dependence trees and Multi-Triangulations are not exported; those leaves end at their finest static rep",
+                    r.paged_reps_skipped
+                );
+            }
             Ok(())
         }
         Cmd::Gen(GenCmd::Plant {

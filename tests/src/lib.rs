@@ -4,6 +4,7 @@
 pub mod conformance;
 pub mod reencode;
 pub mod servers;
+pub mod web;
 
 use std::path::PathBuf;
 

@@ -37,6 +37,17 @@ impl Nginx {
     /// Serves `dir`, or `None` (the skip recorded) when nginx is not
     /// installed; with `HLOD_REQUIRE_NGINX` set a missing nginx fails.
     pub fn start(test: &str, dir: &Path) -> Option<Self> {
+        Self::start_script(test, "serve.sh", dir)
+    }
+
+    /// The web viewer with the 3D Tiles export in `dir`, through
+    /// `scripts/serve-web.sh` (the page at `/`, the tileset at `/tiles/`).
+    pub fn start_web(test: &str, dir: &Path) -> Option<Self> {
+        Self::start_script(test, "serve-web.sh", dir)
+    }
+
+    /// `scripts/SCRIPT DIR PORT` on a free port.
+    fn start_script(test: &str, script: &str, dir: &Path) -> Option<Self> {
         let have = Path::new("/usr/sbin/nginx").exists()
             || Command::new("nginx").arg("-v").output().is_ok();
         if !have {
@@ -46,7 +57,9 @@ impl Nginx {
             crate::record_skip(test, "nginx not installed (scripts/setup.sh installs it)");
             return None;
         }
-        let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scripts/serve.sh");
+        let script = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../scripts")
+            .join(script);
         let logs = tempfile::tempdir().expect("a temp dir");
         for _ in 0..5 {
             let port = free_port();

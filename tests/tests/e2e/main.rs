@@ -17,6 +17,7 @@ mod reencode;
 mod remote;
 mod render;
 mod scenes;
+mod tiles3d;
 mod vdt;
 mod vdt_runtime;
 mod vdt_scene;

@@ -21,14 +21,14 @@ use hlod_builder::build::{BuildParams, build_file};
 const W: u32 = 320;
 const H: u32 = 240;
 
-fn build(glb: &Path) -> (tempfile::TempDir, PathBuf) {
+pub(crate) fn build(glb: &Path) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("scene.hlod");
     build_file(glb, &out, &BuildParams::default(), false).unwrap();
     (dir, out)
 }
 
-fn load(path: &Path) -> (Arc<Skeleton>, Arc<dyn ByteSource>, u64) {
+pub(crate) fn load(path: &Path) -> (Arc<Skeleton>, Arc<dyn ByteSource>, u64) {
     let scene = SceneFile::open(path).unwrap();
     let skel = Arc::new(scene.skeleton().clone());
     let data: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
@@ -36,7 +36,7 @@ fn load(path: &Path) -> (Arc<Skeleton>, Arc<dyn ByteSource>, u64) {
     (skel, Arc::new(MemSource::new(bytes)), data)
 }
 
-fn renderer(test: &str, capacity: u64, colouring: Colouring) -> Option<GpuRenderer> {
+pub(crate) fn renderer(test: &str, capacity: u64, colouring: Colouring) -> Option<GpuRenderer> {
     let ctx = e2e_tests::gpu_or_skip(test)?;
     let r = GpuRenderer::new(
         ctx,
@@ -49,7 +49,7 @@ fn renderer(test: &str, capacity: u64, colouring: Colouring) -> Option<GpuRender
     Some(r)
 }
 
-fn params(mode: Mode, budget: u64, tol: f32) -> RuntimeParams {
+pub(crate) fn params(mode: Mode, budget: u64, tol: f32) -> RuntimeParams {
     RuntimeParams {
         mode,
         budget_bytes: budget,
@@ -61,7 +61,7 @@ fn params(mode: Mode, budget: u64, tol: f32) -> RuntimeParams {
 }
 
 /// A view of the whole scene from direction `dir`.
-fn overview(skel: &Skeleton, dir: Vec3) -> Pose {
+pub(crate) fn overview(skel: &Skeleton, dir: Vec3) -> Pose {
     let root = &skel.nodes[0];
     let (min, max) = (Vec3::from(root.bbox_min), Vec3::from(root.bbox_max));
     let c = (min + max) * 0.5;
@@ -70,7 +70,7 @@ fn overview(skel: &Skeleton, dir: Vec3) -> Pose {
 }
 
 /// Renders `pose` and reads the image back.
-fn shot(walk: &mut Walkthrough, r: &mut GpuRenderer, pose: &Pose) -> RgbaImage {
+pub(crate) fn shot(walk: &mut Walkthrough, r: &mut GpuRenderer, pose: &Pose) -> RgbaImage {
     r.capture_next_frame();
     walk.frame(pose, r).unwrap();
     r.take_capture().expect("captured frame")
