@@ -2,7 +2,7 @@
 // waits until every tile the view asks for is loaded and drawn, saves a
 // screenshot, optionally picks at a pixel, and prints what it saw as JSON.
 //
-//   node shot.mjs URL --size 640x480 --out shot.png [--pick X,Y;X,Y...] [--timeout 120]
+//   node shot.mjs URL --size 640x480 --out shot.png [--pick X,Y;X,Y...] [--click X,Y] [--timeout 120]
 //
 // Chromium is Debian's (/usr/bin/chromium, or $CHROMIUM), with WebGL through
 // SwiftShader, so it runs without a GPU.
@@ -42,6 +42,13 @@ try {
     calm = (await page.evaluate(() => window.hlod.idle())) ? calm + 1 : 0;
   }
   const idleMs = Date.now() - t0;
+  const click = opt('click', null);
+  if (click) {
+    const [x, y] = click.split(',').map(Number);
+    await page.mouse.click(x, y);
+    const f = await page.evaluate(() => window.hlod.frames());
+    await page.waitForFunction((f) => window.hlod.frames() > f + 1, f, { timeout });
+  }
   if (out) await page.screenshot({ path: out });
   const stats = await page.evaluate(() => window.hlod.stats());
   const pick = [];
