@@ -14,7 +14,7 @@
 // wheel zooms); a click names the element under the pointer.
 //
 // `window.hlod` is the page's interface for scripts and tests: `ready`
-// (a promise), `setPose(array)`, `idle()`, `stats()`, `pick(x, y)`.
+// (a promise), `setPose(array)`, `idle()`, `complete()`, `stats()`, `pick(x, y)`.
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
@@ -82,8 +82,12 @@ const origin = t ? [t[12], t[14], -t[13]] : [0, 0, 0];
 const tiles = new TilesRenderer(tilesetUrl);
 tiles.registerPlugin(new GLTFExtensionsPlugin({ meshoptDecoder: MeshoptDecoder, metadata: true }));
 tiles.errorTarget = errorTarget;
+// The cache is bounded by bytes only (its default also caps it at 8,000
+// tiles, which the DE-size plant's front exceeds at ε 2 px).
 tiles.lruCache.maxBytesSize = cacheMiB * 2 ** 20;
 tiles.lruCache.minBytesSize = 0.75 * cacheMiB * 2 ** 20;
+tiles.lruCache.maxSize = Infinity;
+tiles.lruCache.minSize = 0;
 tiles.group.rotation.x = -Math.PI / 2;
 tiles.group.position.set(-origin[0], -origin[1], -origin[2]);
 tiles.addEventListener('load-model', ({ scene: model }) => {
@@ -190,9 +194,22 @@ function show(p) {
   panel.dataset.picked = '1';
 }
 
+// Bytes the page has downloaded (tileset JSON and tile contents), from the
+// browser's resource timing.
+let downloaded = 0;
+let requests = 0;
+new PerformanceObserver((list) => {
+  for (const e of list.getEntries()) {
+    if (e.name.includes('/node_modules/') || !/\.(glb|json)(\?|$)/.test(e.name)) continue;
+    downloaded += e.encodedBodySize || e.transferSize || 0;
+    requests += 1;
+  }
+}).observe({ type: 'resource', buffered: true });
+
 function stats() {
   const s = tiles.stats;
   return {
+    downloaded, requests,
     cachedBytes: tiles.lruCache.cachedBytes,
     cacheCap: tiles.lruCache.maxBytesSize,
     queued: s.queued, downloading: s.downloading, parsing: s.parsing,
@@ -220,9 +237,23 @@ function setPose(p) {
   camera.quaternion.set(p[3], p[4], p[5], p[6]);
 }
 
+// Nothing queued, downloading or parsing.
 function idle() {
   const s = tiles.stats;
   return !tiles.isLoading && s.queued + s.downloading + s.parsing === 0;
+}
+
+// Whether the view is complete: every tile the last update selected (used,
+// with content, none of its children used) is loaded. Idle is not enough: a
+// full cache loads nothing more and the view shows coarser ancestors.
+function complete() {
+  const fc = tiles.frameCount;
+  const now = (t) => t.traversal.used && t.traversal.lastFrameVisited === fc;
+  for (const t of tiles.usedSet) {
+    if (!now(t) || !t.internal.hasRenderableContent || t.children.some(now)) continue;
+    if (t.internal.loadingState !== 4) return false;
+  }
+  return true;
 }
 
 addEventListener('resize', () => {
@@ -251,4 +282,4 @@ const pose = params.get('camera');
 if (pose) setPose(pose.split(',').map(Number));
 status();
 requestAnimationFrame(frame);
-window.hlod = { ready: Promise.resolve(), setPose, idle, stats, pick, frames: () => frames };
+window.hlod = { ready: Promise.resolve(), setPose, idle, complete, stats, pick, frames: () => frames };

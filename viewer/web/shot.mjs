@@ -39,7 +39,7 @@ try {
     if (Date.now() - t0 > timeout) throw new Error(`not idle after ${timeout} ms: ${JSON.stringify(await page.evaluate(() => window.hlod.stats()))}`);
     const f0 = await page.evaluate(() => window.hlod.frames());
     await page.waitForFunction((f) => window.hlod.frames() > f + 1, f0, { timeout });
-    calm = (await page.evaluate(() => window.hlod.idle())) ? calm + 1 : 0;
+    calm = (await page.evaluate(() => window.hlod.idle() && window.hlod.complete())) ? calm + 1 : 0;
   }
   const idleMs = Date.now() - t0;
   const click = opt('click', null);

@@ -48,7 +48,13 @@ fn the_export_of_every_test_model_validates_without_errors_or_warnings() {
     };
     let tmp = tempfile::tempdir().unwrap();
     let data = e2e_tests::data_dir();
+    // The FZK-Haus moved to survey coordinates (5,000 km, 3,000 km).
+    let flat = e2e_tests::conformance::read_flat(&data.join("AC14-FZK-Haus.glb"));
+    let (bytes, _) = e2e_tests::conformance::write(&flat, e2e_tests::conformance::Variant::Survey);
+    let survey = tmp.path().join("survey.glb");
+    std::fs::write(&survey, bytes).unwrap();
     let models = [
+        survey.clone(),
         plant(tmp.path()),
         data.join("AC14-FZK-Haus.glb"),
         data.join("Ifc2x3_Duplex_Architecture.glb"),
@@ -69,6 +75,22 @@ fn the_export_of_every_test_model_validates_without_errors_or_warnings() {
                 },
             )
             .unwrap();
+            if *model == survey {
+                // The origin is the root's translation, z-up; boxes stay near zero.
+                let o = SceneFile::open(&scene).unwrap().header().origin;
+                assert!(o[0] > 4.0e6, "a survey origin: {o:?}");
+                let t: serde_json::Value =
+                    serde_json::from_slice(&std::fs::read(dir.join("tileset.json")).unwrap())
+                        .unwrap();
+                let m = t["root"]["transform"].as_array().unwrap();
+                let got: Vec<f64> = m[12..15].iter().map(|v| v.as_f64().unwrap()).collect();
+                assert_eq!(got, vec![o[0], -o[2], o[1]]);
+                let b = t["root"]["boundingVolume"]["box"].as_array().unwrap();
+                assert!(
+                    b[0].as_f64().unwrap().abs() < 1e3,
+                    "boxes relative to the origin"
+                );
+            }
             let r = e2e_tests::web::validate(&validator, &dir.join("tileset.json"));
             assert_eq!(
                 (r["numErrors"].as_u64(), r["numWarnings"].as_u64()),
@@ -175,6 +197,23 @@ fn compare_in_browser(test: &str, model: &Path, dir: Vec3, reach: f32) {
     let png = tmp.path().join("browser.png");
     let seen = e2e_tests::web::shoot(&script, &url(&server.base, &pose), (W, H), &png, &at);
     let theirs = RgbaImage::load_png(&png).unwrap();
+    // The same front: the triangles the browser drew are those of our front
+    // at ε 2 px (our errors as geometricError, the same projection).
+    let view = engine::camera::View {
+        pose,
+        width_px: W,
+        height_px: H,
+        near: 0.1,
+        far: 1e6,
+    };
+    let mut front = Vec::new();
+    engine::front::FrontIndex::new(&skel).compute(&view, &view.frustum(0.0), 2.0, &mut front);
+    let ours_tris: u64 = front
+        .iter()
+        .map(|&r| u64::from(skel.reps[r as usize].tri_count))
+        .sum();
+    let their_tris = seen["stats"]["triangles"].as_u64().unwrap();
+    let ratio = their_tris as f64 / ours_tris as f64;
     let errors = seen["errors"].as_array().unwrap();
     assert!(errors.is_empty(), "the page logged errors: {errors:?}");
     assert!(ours.coverage() > 0.05, "our frame shows the model");
@@ -200,6 +239,11 @@ fn compare_in_browser(test: &str, model: &Path, dir: Vec3, reach: f32) {
             keep.display()
         )
     };
+    assert!(
+        (0.97..=1.03).contains(&ratio),
+        "the browser drew {their_tris} triangles, our front has {ours_tris}; {}",
+        debug()
+    );
     assert!(mismatch < 0.03, "{}", debug());
     assert!(share < 0.06, "{}", debug());
     // Picking: every element the browser names is the one we name; most
@@ -224,7 +268,7 @@ fn compare_in_browser(test: &str, model: &Path, dir: Vec3, reach: f32) {
         debug()
     );
     eprintln!(
-        "{test}: {}; {} of {} picks named alike",
+        "{test}: {their_tris} triangles drawn, {ours_tris} in our front; {}; {} of {} picks named alike",
         debug(),
         named.len(),
         picks.len()
