@@ -581,3 +581,49 @@ fn ifc_without_ifcopenshell_says_how_to_install_it() {
     );
     assert!(!d.join("x.hlod").exists());
 }
+
+#[test]
+fn export_3dtiles_writes_a_tileset_and_fails_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let haus = data("AC14-FZK-Haus.glb");
+    let out = hlod_build(&["build", &haus, "-o", "h.hlod", "-q"], d);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = hlod_build(&["export-3dtiles", "h.hlod", "-o", "tiles"], d);
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(said.contains("name their elements"), "{said}");
+    assert!(d.join("tiles/tileset.json").is_file());
+    // A missing scene is named; nothing is written.
+    let n = std::fs::read_dir(d).unwrap().count();
+    let out = hlod_build(&["export-3dtiles", "nope.hlod", "-o", "t2"], d);
+    assert_clean_failure(&out, "nope.hlod", d, n);
+    // A folder that is not an export is refused and left as it was.
+    std::fs::create_dir(d.join("mine")).unwrap();
+    std::fs::write(d.join("mine/notes.txt"), b"mine").unwrap();
+    let n = std::fs::read_dir(d).unwrap().count();
+    let out = hlod_build(&["export-3dtiles", "h.hlod", "-o", "mine"], d);
+    assert_clean_failure(&out, "not an earlier export", d, n);
+    assert_eq!(std::fs::read(d.join("mine/notes.txt")).unwrap(), b"mine");
+    // A nonsense parameter.
+    let out = hlod_build(
+        &[
+            "export-3dtiles",
+            "h.hlod",
+            "-o",
+            "t3",
+            "--max-tiles-per-json",
+            "1",
+        ],
+        d,
+    );
+    assert_clean_failure(&out, "at least 16", d, n);
+}
