@@ -249,6 +249,9 @@ function idle() {
 function complete() {
   const fc = tiles.frameCount;
   const now = (t) => t.traversal.used && t.traversal.lastFrameVisited === fc;
+  // Not before the tileset is loaded and traversed (nothing selected yet).
+  const root = tiles.root;
+  if (!root || root.traversal.lastFrameVisited !== fc) return false;
   for (const t of tiles.usedSet) {
     if (!now(t) || !t.internal.hasRenderableContent || t.children.some(now)) continue;
     if (t.internal.loadingState !== 4) return false;
