@@ -39,7 +39,7 @@ target/release/hlod-bench "http://127.0.0.1:$port/$(basename "$scene")" --path-k
   --width "$w" --height "$h" --out "$out/ours" > "$out/ours.log"
 # The same bytes as the tile cache's cap.
 cap=$(awk -F, 'NR == 2 { print $14 }' "$out/ours/pre.csv")
-cp viewer/web/walk.mjs target/web/
+cp viewer/web/walk.mjs viewer/web/browser.mjs target/web/
 node target/web/walk.mjs "http://127.0.0.1:$((port + 500))/?error=$eps&cache=$(awk "BEGIN { print $cap / 1048576 }")" \
   --path "$out/ours/path.txt" --size "$size" --fps 30 --out "$out/theirs.csv" > "$out/theirs.json"
 mib() { awk "BEGIN { printf \"%.1f\", $1 / 1048576 }"; }

@@ -94,14 +94,17 @@ pub fn browser(test: &str) -> Option<PathBuf> {
         "HLOD_REQUIRE_BROWSER",
         "Chromium with playwright-core",
     )?;
-    // The script imports playwright-core from beside it.
-    let script = target().join("web/shot.mjs");
-    std::fs::copy(
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../viewer/web/shot.mjs"),
-        &script,
-    )
-    .expect("shot.mjs copied");
-    Some(script)
+    // The scripts import playwright-core from beside them.
+    for name in ["shot.mjs", "browser.mjs"] {
+        std::fs::copy(
+            PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                .join("../viewer/web")
+                .join(name),
+            target().join("web").join(name),
+        )
+        .unwrap_or_else(|e| panic!("{name} copied: {e}"));
+    }
+    Some(target().join("web/shot.mjs"))
 }
 
 /// Opens `url` at `width` x `height`, waits until the view is complete,

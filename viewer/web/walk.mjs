@@ -2,7 +2,7 @@
 // headless Chromium, and writes one CSV line per drawn frame: what a user
 // of a 3D Tiles viewer would see on the same path as hlod-bench walks.
 //
-//   node walk.mjs URL --path path.txt --size 640x360 --fps 30 --out walk.csv
+//   node walk.mjs URL --path path.txt --size 640x360 --fps 30 --out walk.csv [--timeout 3600]
 //
 // URL is the page with its parameters (error=, cache=). The path is a path
 // file (hlod-bench writes path.txt). The walk first holds the path's first
@@ -13,42 +13,23 @@
 // the view selects is loaded), cached_bytes, downloaded_bytes,
 // requests, visible_tiles, triangles.
 import { readFileSync, writeFileSync } from 'node:fs';
-import { chromium } from 'playwright-core';
+import { commandLine, launch, untilComplete } from './browser.mjs';
 
-const args = process.argv.slice(2);
-const url = args[0];
-const opt = (name, dflt) => {
-  const i = args.indexOf(`--${name}`);
-  return i >= 0 ? args[i + 1] : dflt;
-};
+const { url, opt } = commandLine();
 const [w, h] = opt('size', '640x360').split('x').map(Number);
 const fps = Number(opt('fps', '30'));
 const out = opt('out', 'walk.csv');
+const timeout = Number(opt('timeout', '3600')) * 1000;
 const poses = readFileSync(opt('path'), 'utf8').split('\n')
   .map((l) => l.trim()).filter((l) => l && !l.startsWith('#'))
   .map((l) => l.split(/\s+/).map(Number));
 
-const browser = await chromium.launch({
-  executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
-  args: ['--headless=new', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
-    '--disable-background-networking', '--disable-component-update', '--disable-sync',
-    '--no-first-run', '--disable-quic'],
-});
+const browser = await launch();
 try {
   const page = await browser.newPage({ viewport: { width: w, height: h } });
   const t0 = Date.now();
   await page.goto(`${url}${url.includes('?') ? '&' : '?'}ui=0&camera=${poses[0].join(',')}`);
-  await page.waitForFunction(() => window.hlod !== undefined);
-  const first = await page.evaluate(async () => {
-    const h = window.hlod;
-    const frame = () => new Promise((r) => requestAnimationFrame(r));
-    let calm = 0;
-    while (calm < 3) {
-      await frame();
-      calm = h.idle() && h.complete() ? calm + 1 : 0;
-    }
-    return h.stats();
-  });
+  const first = await untilComplete(page, timeout, 3);
   const firstMs = Date.now() - t0;
   const rows = await page.evaluate(async ([poses, fps]) => {
     const h = window.hlod;

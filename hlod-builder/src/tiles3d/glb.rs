@@ -41,8 +41,17 @@ pub struct Features {
     pub elements: Vec<Element>,
 }
 
+/// One string property of an element: its name and how to read it.
+type StringProperty = (&'static str, fn(&Element) -> &str);
+
 /// The string properties of the element class, in table order.
-const STRINGS: [&str; 5] = ["name", "mesh_name", "ifc_type", "global_id", "info"];
+const STRINGS: [StringProperty; 5] = [
+    ("name", |e| &e.name),
+    ("mesh_name", |e| &e.mesh_name),
+    ("ifc_type", |e| &e.ifc_type),
+    ("global_id", |e| &e.global_id),
+    ("info", |e| &e.info),
+];
 
 /// A glTF's buffer data and views, built up as streams are added.
 #[derive(Default)]
@@ -147,7 +156,7 @@ fn vertices(
 }
 
 /// The string property's values and offsets (UINT32), as bytes.
-fn string_column(rows: impl Iterator<Item = String>) -> (Vec<u8>, Vec<u8>) {
+fn string_column<'a>(rows: impl Iterator<Item = &'a str>) -> (Vec<u8>, Vec<u8>) {
     let (mut values, mut offsets) = (Vec::new(), vec![0u8; 4]);
     for r in rows {
         values.extend_from_slice(r.as_bytes());
@@ -164,17 +173,8 @@ fn metadata(bin: &mut Bin, elements: &[Element]) -> Value {
         .collect();
     let mut props = serde_json::Map::new();
     props.insert("object".into(), json!({"values": bin.plain(&objects)}));
-    for (k, name) in STRINGS.iter().enumerate() {
-        let (values, offsets) = string_column(elements.iter().map(|e| {
-            match k {
-                0 => &e.name,
-                1 => &e.mesh_name,
-                2 => &e.ifc_type,
-                3 => &e.global_id,
-                _ => &e.info,
-            }
-            .clone()
-        }));
+    for (name, field) in STRINGS {
+        let (values, offsets) = string_column(elements.iter().map(field));
         if values.is_empty() {
             // No element has it: left out (a zero-length view is invalid).
             continue;
@@ -192,7 +192,7 @@ fn metadata(bin: &mut Bin, elements: &[Element]) -> Value {
         json!({"type": "SCALAR", "componentType": "UINT32",
                "description": "index of the object in the scene file"}),
     );
-    for name in STRINGS {
+    for (name, _) in STRINGS {
         class_props.insert(name.into(), json!({"type": "STRING"}));
     }
     json!({
@@ -307,17 +307,4 @@ fn glb(doc: &Value, mut bin: Vec<u8>) -> Vec<u8> {
     out.extend_from_slice(b"BIN\0");
     out.extend_from_slice(&bin);
     out
-}
-
-/// Splits a GLB into its JSON and BIN chunks (for checks and tests).
-pub fn parse(bytes: &[u8]) -> Option<(Value, &[u8])> {
-    let u32_at = |o: usize| Some(u32::from_le_bytes(bytes.get(o..o + 4)?.try_into().ok()?));
-    if bytes.get(..4)? != b"glTF" || u32_at(8)? as usize != bytes.len() {
-        return None;
-    }
-    let jl = u32_at(12)? as usize;
-    let json = serde_json::from_slice(bytes.get(20..20 + jl)?).ok()?;
-    let bl = u32_at(20 + jl)? as usize;
-    let bin = bytes.get(28 + jl..28 + jl + bl)?;
-    Some((json, bin))
 }

@@ -108,6 +108,13 @@ fn chain(s: &Skeleton, n: &NodeRecord) -> Vec<u32> {
         .collect()
 }
 
+/// Whether rep `r` gets a `.glb` (a static mesh with triangles): the export
+/// writes every such rep or fails.
+fn has_content(s: &Skeleton, r: u32) -> bool {
+    let rec = &s.reps[r as usize];
+    !rec.is_paged() && rec.tri_count > 0
+}
+
 /// A node's content path, relative to the tileset's folder.
 pub fn content_uri(rep: u32) -> String {
     format!("content/{}/{rep}.glb", rep / 1000)
@@ -164,7 +171,6 @@ impl Split {
 /// Writes the tileset JSON files, from the root down.
 struct Tileset<'a> {
     s: &'a Skeleton,
-    has_content: &'a [bool],
     split: Split,
     origin: [f64; 3],
     dir: &'a Path,
@@ -208,7 +214,7 @@ impl Tileset<'_> {
         let mut tile: Option<Value> = None;
         for k in (0..errors.len()).rev() {
             let mut t = json!({"boundingVolume": bv.clone(), "geometricError": errors[k] as f32});
-            if let Some(&r) = reps.get(k).filter(|&&r| self.has_content[r as usize]) {
+            if let Some(&r) = reps.get(k).filter(|&&r| has_content(self.s, r)) {
                 t["content"] = json!({"uri": content_uri(r)});
             }
             let kids = match tile.take() {
@@ -431,7 +437,6 @@ pub fn export(scene: &Path, out: &Path, opts: ExportOptions) -> Result<ExportRep
         .tempdir_in(&parent)
         .map_err(io_at(&parent))?;
     let mut report = ExportReport::default();
-    let mut has_content = vec![false; s.reps.len()];
     let mut chains = vec![0u32; s.nodes.len()];
     let mut finest = vec![false; s.reps.len()];
     for (i, n) in s.nodes.iter().enumerate() {
@@ -445,10 +450,7 @@ pub fn export(scene: &Path, out: &Path, opts: ExportOptions) -> Result<ExportRep
     let order: Vec<u32> = s
         .reps_in_file_order()
         .into_iter()
-        .filter(|&r| {
-            let rec = &s.reps[r as usize];
-            !rec.is_paged() && rec.tri_count > 0
-        })
+        .filter(|&r| has_content(s, r))
         .collect();
     for batch in order.chunks(256) {
         let meshes = batch
@@ -468,8 +470,7 @@ pub fn export(scene: &Path, out: &Path, opts: ExportOptions) -> Result<ExportRep
                 Ok((bytes.len() as u64, f.is_some()))
             })
             .collect::<Result<Vec<_>, ExportError>>()?;
-        for (&r, (len, named)) in batch.iter().zip(written) {
-            has_content[r as usize] = true;
+        for (len, named) in written {
             report.contents += 1;
             report.content_bytes += len;
             report.contents_with_elements += u64::from(named);
@@ -477,7 +478,6 @@ pub fn export(scene: &Path, out: &Path, opts: ExportOptions) -> Result<ExportRep
     }
     let mut ts = Tileset {
         s,
-        has_content: &has_content,
         split: Split::new(s, &chains, opts.max_tiles_per_json),
         origin: file.header().origin,
         dir: tmp.path(),

@@ -25,7 +25,10 @@ fn plant_scene(dir: &Path, objects: usize) -> PathBuf {
 
 /// Decodes a GLB's primitive back: vertices, indices, feature IDs.
 fn decode(bytes: &[u8]) -> (Value, Vec<PackedVertex>, Vec<u32>, Vec<f32>) {
-    let (doc, bin) = glb::parse(bytes).expect("a GLB");
+    // Read back through the gltf crate's GLB reader, not ours.
+    let glb = gltf::binary::Glb::from_slice(bytes).expect("a GLB");
+    let doc: Value = serde_json::from_slice(&glb.json).expect("JSON");
+    let bin = glb.bin.expect("a BIN chunk");
     let view = |a: usize| {
         let v = &doc["bufferViews"][doc["accessors"][a]["bufferView"].as_u64().unwrap() as usize];
         let e = &v["extensions"]["EXT_meshopt_compression"];
