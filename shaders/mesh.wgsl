@@ -3,6 +3,7 @@
 // opaque pass (fs_main) draws the fragments whose colour is opaque and
 // writes depth; the translucent pass (fs_translucent, alpha blending, no
 // depth write) draws the others (glass, translucent materials) over it.
+// Both discard what a section plane cuts away; the opaque pass caps the cut.
 //
 // Vertex layout (16 bytes, see engine::format::rep::PackedVertex):
 //   location 0: position unorm16x4 over the rep's quantisation box
@@ -15,6 +16,11 @@ struct Globals {
     view_proj: mat4x4<f32>,
     // xyz: eye position in world space.
     eye: vec4<f32>,
+    // Section planes (engine::section): a fragment with
+    // dot(plane.xyz, world) + plane.w < 0 is cut away.
+    planes: array<vec4<f32>, 8>,
+    // x: how many of `planes` are in use.
+    section: vec4<u32>,
 };
 
 struct DrawData {
@@ -90,11 +96,29 @@ fn faded_out(in: VsOut) -> bool {
     return (fading_in && threshold >= in.fade.x) || (fading_out && threshold < in.fade.x);
 }
 
+// Whether a section plane cuts the point away.
+fn cut_away(world: vec3<f32>) -> bool {
+    let n = min(globals.section.x, 8u);
+    for (var i = 0u; i < n; i++) {
+        let q = globals.planes[i];
+        if dot(q.xyz, world) + q.w < 0.0 {
+            return true;
+        }
+    }
+    return false;
+}
+
+// The opaque pass. Under a section, a back face seen through the cut is
+// the inside of a cut solid: it is drawn flat and dark, a cap over the
+// cut (open surfaces seen from behind take it too while a section is on).
 @fragment
-fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
+fn fs_main(in: VsOut, @builtin(front_facing) front: bool) -> @location(0) vec4<f32> {
     let c = shade(in);
-    if faded_out(in) || in.color.a < OPAQUE {
+    if faded_out(in) || in.color.a < OPAQUE || cut_away(in.world) {
         discard;
+    }
+    if globals.section.x > 0u && !front {
+        return vec4<f32>(in.color.rgb * 0.35, 1.0);
     }
     return vec4<f32>(c.rgb, 1.0);
 }
@@ -102,7 +126,7 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
 @fragment
 fn fs_translucent(in: VsOut) -> @location(0) vec4<f32> {
     let c = shade(in);
-    if faded_out(in) || in.color.a >= OPAQUE {
+    if faded_out(in) || in.color.a >= OPAQUE || cut_away(in.world) {
         discard;
     }
     return c;

@@ -17,6 +17,8 @@ use std::path::Path;
 
 use glam::{EulerRot, Quat, Vec3};
 
+use crate::section::Section;
+
 /// One camera pose.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Pose {
@@ -92,6 +94,9 @@ pub struct View {
     pub height_px: u32,
     pub near: f32,
     pub far: f32,
+    /// Section planes: what they remove is culled by every frustum made
+    /// from this view (see [`crate::section`]).
+    pub section: Section,
 }
 
 impl View {
@@ -116,7 +121,9 @@ impl View {
     /// follow: the frustum is then all around it ([`Frustum::all_around`]).
     pub fn frustum(&self, margin_rad: f32) -> Frustum {
         if margin_rad >= std::f32::consts::FRAC_PI_2 {
-            return Frustum::all_around(self.pose.position, self.pose.forward());
+            let mut f = Frustum::all_around(self.pose.position, self.pose.forward());
+            f.section = self.section;
+            return f;
         }
         let half_y0 = 0.5 * self.pose.fov_y_deg.to_radians();
         let half_x0 = (half_y0.tan() * self.aspect()).atan();
@@ -150,6 +157,7 @@ impl View {
             eye,
             forward: fwd,
             half_angle: tan_y.atan().max(tan_x.atan()),
+            section: self.section,
         }
     }
 }
@@ -162,6 +170,8 @@ pub struct Frustum {
     pub forward: Vec3,
     /// The larger of the horizontal and vertical half-angles.
     pub half_angle: f32,
+    /// The view's section planes, culled with the six.
+    pub section: Section,
 }
 
 impl Frustum {
@@ -173,6 +183,7 @@ impl Frustum {
             eye,
             forward,
             half_angle: std::f32::consts::PI,
+            section: Section::NONE,
         }
     }
 
@@ -182,7 +193,7 @@ impl Frustum {
         self.planes.iter().all(|(n, d)| {
             let p = Vec3::select(n.cmpge(Vec3::ZERO), max, min);
             n.dot(p) + d >= 0.0
-        })
+        }) && self.section.keeps_box(min, max)
     }
 
     /// Angle between the line of sight and the direction to the box's centre.
@@ -482,6 +493,7 @@ mod tests {
             height_px: 720,
             near: 0.1,
             far: 1000.0,
+            section: crate::section::Section::NONE,
         }
     }
 

@@ -28,8 +28,10 @@
 //!   under a hard byte budget, in `incore`, `nopre` and `pre` modes.
 //! - [`metrics`] (per-frame CSV, summaries) and [`render`] (the renderer trait
 //!   and the `none` renderer).
+//! - [`measure`]: point-to-point distances, picks snapped to a corner or edge.
 //! - [`pick`]: the object under a pixel (leaf boxes, then the finest rep's
 //!   triangles), resolved through the scene file's object section.
+//! - [`section`]: section planes and boxes, culled with the frustum.
 //! - [`limits`] (checked durations, allocations and reads bounded by the
 //!   file and the machine) and [`outfile`] (the output-file policy of every
 //!   writer: regular or new files only, never an input, atomic, cleaned up).
@@ -61,6 +63,7 @@ pub mod infile;
 pub mod interior;
 pub mod io;
 pub mod limits;
+pub mod measure;
 pub mod metrics;
 pub mod mt;
 pub mod occlusion;
@@ -73,6 +76,7 @@ pub mod remote;
 pub mod render;
 pub mod runtime;
 pub mod scene_handle;
+pub mod section;
 pub mod skeleton;
 pub mod vdt;
 

@@ -13,6 +13,7 @@ use glam::Vec3;
 use crate::format::objects::ObjectTable;
 use crate::format::{FormatError, RepKind, SceneFile};
 use crate::io::ByteSource;
+use crate::section::Section;
 use crate::skeleton::RepId;
 
 /// What a ray hit.
@@ -30,6 +31,8 @@ pub struct Hit {
     pub point: Vec3,
     /// The source object, when the scene describes its objects.
     pub object: Option<u32>,
+    /// The triangle's corners, in scene coordinates (for snapping).
+    pub corners: [Vec3; 3],
 }
 
 /// Ray parameter interval inside the box, `None` when it misses.
@@ -73,6 +76,17 @@ pub fn pick<S: ByteSource>(
     origin: Vec3,
     dir: Vec3,
 ) -> Result<Option<Hit>, FormatError> {
+    pick_cut(scene, objects, origin, dir, &Section::NONE)
+}
+
+/// [`pick`] in a model cut open by `section`: what it cuts away is not hit.
+pub fn pick_cut<S: ByteSource>(
+    scene: &SceneFile<S>,
+    objects: &ObjectTable,
+    origin: Vec3,
+    dir: Vec3,
+    section: &Section,
+) -> Result<Option<Hit>, FormatError> {
     let dir = dir.normalize_or_zero();
     if dir == Vec3::ZERO || !origin.is_finite() {
         return Ok(None);
@@ -84,6 +98,7 @@ pub fn pick<S: ByteSource>(
         .iter()
         .enumerate()
         .filter(|(_, n)| n.is_leaf() && n.rep_count > 0)
+        .filter(|(_, n)| section.keeps_box(n.bbox_min.into(), n.bbox_max.into()))
         .filter_map(|(i, n)| {
             ray_box(origin, inv, n.bbox_min.into(), n.bbox_max.into()).map(|(lo, _)| (lo, i as u32))
         })
@@ -119,7 +134,7 @@ pub fn pick<S: ByteSource>(
             ) else {
                 continue;
             };
-            if best.is_none_or(|b| d < b.t) {
+            if best.is_none_or(|b| d < b.t) && section.keeps(origin + dir * d) {
                 best = Some(Hit {
                     node,
                     rep,
@@ -127,6 +142,7 @@ pub fn pick<S: ByteSource>(
                     t: d,
                     point: origin + dir * d,
                     object: None,
+                    corners: [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]],
                 });
             }
         }
@@ -180,6 +196,26 @@ mod tests {
                 .unwrap()
                 .is_none()
         );
+    }
+
+    #[test]
+    fn what_a_section_cuts_away_is_not_picked() {
+        let (bytes, _) = build_with(&[1, 1, 1, 1], &[3, 0, 0, 0], [0.0; 3], &[]);
+        let scene = SceneFile::from_source(MemSource::new(bytes)).unwrap();
+        let table = scene.read_objects().unwrap();
+        // Everything beyond x = 1.2 cut away: leaf 1 is cut, leaf 2 removed.
+        let cut = Section::from_planes(&[(Vec3::new(1.2, 0.0, 0.0), Vec3::X)]).unwrap();
+        let at = |x: f32, s: &Section| {
+            pick_cut(&scene, &table, Vec3::new(x, 0.4, 5.0), Vec3::NEG_Z, s)
+                .unwrap()
+                .map(|h| h.node)
+        };
+        let leaf = |k: u32| Some(1 + k);
+        assert_eq!(at(1.1, &cut), leaf(1));
+        assert_eq!(at(1.5, &Section::NONE), leaf(1));
+        assert_eq!(at(1.5, &cut), None);
+        assert_eq!(at(2.5, &cut), None);
+        assert_eq!(at(0.5, &cut), leaf(0));
     }
 
     #[test]

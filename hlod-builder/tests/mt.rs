@@ -55,6 +55,7 @@ fn view(eye: Vec3, at: Vec3) -> View {
         height_px: 360,
         near: 1e-3,
         far: 1e3,
+        section: engine::section::Section::NONE,
     }
 }
 

@@ -18,6 +18,7 @@ use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
 mod frame;
+mod views;
 
 use crate::Args;
 use crate::build::Building;
@@ -62,6 +63,7 @@ fn initial_settings(a: &Args) -> Result<Settings> {
         height_px: a.height,
         stall_deadline_s: a.stall_deadline / 1e3,
         fade_s: a.fade,
+        section: engine_cli::parse_section(&a.section, a.section_box.as_deref())?,
         ..RuntimeParams::default()
     };
     params.check()?;
@@ -123,6 +125,7 @@ struct App {
     /// The pose the selection's highlight was last drawn for.
     highlight_pose: Option<Pose>,
     shots: frame::Shots,
+    measuring: views::Measuring,
 }
 
 impl App {
@@ -174,6 +177,7 @@ impl App {
             failed_at: None,
             highlight_pose: None,
             shots: frame::Shots::default(),
+            measuring: views::Measuring::default(),
         }
     }
 
@@ -252,6 +256,7 @@ impl App {
                 self.session = Some(sess);
                 self.error = None;
                 self.open_failed = None;
+                self.apply_viewpoint();
                 if let Some(need) = need.filter(|_| self.args.exit_when_complete) {
                     // Waiting for a complete view would never end.
                     let msg = format!(
@@ -294,6 +299,11 @@ impl App {
             KeyCode::KeyF => self.ui.frozen = !self.ui.frozen,
             KeyCode::KeyR => self.toggle_record(),
             KeyCode::F12 => self.shots.pending = Some(self.next_shot_name()),
+            KeyCode::KeyC => self.toggle_cut(),
+            KeyCode::KeyM => self.toggle_measuring(),
+            KeyCode::KeyV => self
+                .save_viewpoint(None)
+                .unwrap_or_else(|e| self.report(format!("{e:#}"))),
             _ => {}
         }
     }
@@ -357,6 +367,7 @@ impl App {
         } else if !self.ui.frozen {
             self.frozen = None;
         }
+        let marks = (self.highlight_edges(&pose), self.measure_mark(&pose));
         let Some(gfx) = &mut self.gfx else { return };
         let Some(frame) = gfx.acquire() else { return };
         let mut metrics = None;
@@ -414,18 +425,8 @@ impl App {
                 scene: self.session.as_ref().and_then(|s| s.path.to_str()),
                 building: self.building.as_ref().map(Building::status),
                 selection: self.selection.as_ref(),
-                highlight: match (&self.selection, &self.session) {
-                    (Some(sel), Some(s)) => {
-                        let c = s.renderer.config();
-                        crate::picking::box_edges(
-                            &pose,
-                            (c.width, c.height),
-                            sel.scene_min,
-                            sel.scene_max,
-                        )
-                    }
-                    _ => Vec::new(),
-                },
+                highlight: marks.0,
+                measure: marks.1,
                 complete: self.complete,
                 pixels_per_point: gfx.egui_ctx.pixels_per_point(),
                 error: self.error.as_deref(),
@@ -546,6 +547,9 @@ impl App {
         if let Some(poses) = self.recording.take() {
             self.save_recording(&poses);
         }
+        if let Some(to) = self.args.save_viewpoint.clone() {
+            self.save_viewpoint(Some(to)).context("--save-viewpoint")?;
+        }
         if let Some(csv) = self.run_csv.take() {
             csv.finish().context("--csv")?;
         }
@@ -640,7 +644,7 @@ impl ApplicationHandler for App {
                         && (p.0 - c.0).abs() + (p.1 - c.1).abs() < 5.0
                     {
                         let pose = self.frozen.unwrap_or_else(|| self.controls.pose());
-                        self.pick_at(&pose, c.0 as f32, c.1 as f32);
+                        self.click_at(&pose, c.0 as f32, c.1 as f32);
                     }
                 }
             },

@@ -20,6 +20,7 @@ mod overlay;
 mod picking;
 mod session;
 mod ui;
+mod viewpoint;
 
 use engine_cli::in_range;
 use std::path::PathBuf;
@@ -99,6 +100,29 @@ pub struct Args {
     /// left click would: the element there is selected and printed.
     #[arg(long, value_parser = parse_pixel)]
     pub pick: Option<(f32, f32)>,
+    /// A section plane X,Y,Z,DX,DY,DZ (repeatable; scene coordinates, as
+    /// in camera paths): what lies on the side the direction points to is
+    /// cut away, leaves the front and is not fetched (key C: a horizontal
+    /// cut at the eye's height, and back).
+    #[arg(long, value_name = "X,Y,Z,DX,DY,DZ", allow_hyphen_values = true)]
+    pub section: Vec<String>,
+    /// A section box X0,Y0,Z0,X1,Y1,Z1: only what lies inside it stays.
+    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
+    pub section_box: Option<String>,
+    /// Open at a BCF 2.1 viewpoint (`.bcfv`): its camera and clipping planes
+    /// (BCF's Z-up project coordinates; the scene's origin is taken out).
+    #[arg(long, value_name = "FILE.bcfv")]
+    pub viewpoint: Option<PathBuf>,
+    /// Write the view (camera, section, selected element) as a BCF 2.1
+    /// viewpoint at exit; key V writes `hlod-view-N.bcfv` at any time.
+    #[arg(long, value_name = "FILE.bcfv")]
+    pub save_viewpoint: Option<PathBuf>,
+    /// Measure between pixels X0,Y0 and X1,Y1 once the view is complete, as
+    /// two clicks in measuring mode (key M) would: each point snaps to the
+    /// picked triangle's corner or edge within 8 pixels; the distance is
+    /// printed in metres and drawn.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_two_pixels)]
+    pub measure: Option<[f32; 4]>,
     /// Save the last frame (with the overlay) as PNG at exit.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,
@@ -146,12 +170,14 @@ impl Args {
             .scene
             .iter()
             .chain(&self.path)
+            .chain(&self.viewpoint)
             .map(PathBuf::as_path)
             .collect();
         for (flag, out) in [
             ("--csv", &self.csv),
             ("--screenshot", &self.screenshot),
             ("--record", &self.record),
+            ("--save-viewpoint", &self.save_viewpoint),
         ] {
             if let Some(p) = out {
                 engine::outfile::check_output(p, &inputs).with_context(|| flag.to_string())?;
@@ -173,6 +199,18 @@ fn parse_pixel(s: &str) -> Result<(f32, f32), String> {
             .ok_or_else(|| format!("{s:?}: coordinates must be pixels in 0..=8192"))
     };
     Ok((p(x)?, p(y)?))
+}
+
+fn parse_two_pixels(s: &str) -> Result<[f32; 4], String> {
+    let v: Vec<&str> = s.split(',').collect();
+    if v.len() != 4 {
+        return Err(format!("{s:?}: expected X0,Y0,X1,Y1"));
+    }
+    let (a, b) = (
+        parse_pixel(&v[..2].join(","))?,
+        parse_pixel(&v[2..].join(","))?,
+    );
+    Ok([a.0, a.1, b.0, b.1])
 }
 
 fn main() -> ExitCode {

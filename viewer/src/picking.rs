@@ -35,6 +35,10 @@ pub struct Selection {
     pub scene_max: Vec3,
     /// The hit point in world coordinates.
     pub point: [f64; 3],
+    /// The hit point and the hit triangle's corners, in scene coordinates
+    /// (for measuring).
+    pub scene_point: Vec3,
+    pub corners: [Vec3; 3],
 }
 
 impl Picker {
@@ -46,17 +50,18 @@ impl Picker {
         Ok(Self { scene, objects })
     }
 
-    /// The element under pixel `(x, y)` of a `size` viewport seen from `pose`.
+    /// The element under pixel `(x, y)` of a `size` viewport seen from
+    /// `pose`, in the model cut open by `section`.
     pub fn pick(
         &self,
         pose: &engine::camera::Pose,
         size: (u32, u32),
         x: f32,
         y: f32,
-        origin: [f64; 3],
+        (origin, section): ([f64; 3], &engine::section::Section),
     ) -> Result<Option<Selection>> {
         let (o, d) = pose.ray(size.0, size.1, x, y);
-        let Some(hit) = engine::pick::pick(&self.scene, &self.objects, o, d)? else {
+        let Some(hit) = engine::pick::pick_cut(&self.scene, &self.objects, o, d, section)? else {
             return Ok(None);
         };
         let world = |p: Vec3| -> [f64; 3] {
@@ -112,6 +117,8 @@ impl Picker {
             scene_min: smin,
             scene_max: smax,
             point: world(hit.point),
+            scene_point: hit.point,
+            corners: hit.corners,
         }))
     }
 }

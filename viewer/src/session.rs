@@ -121,7 +121,17 @@ impl Session {
         }
         let cfg = *self.renderer.config();
         let picker = self.picker.as_ref().expect("opened above");
-        picker.pick(pose, (cfg.width, cfg.height), x, y, self.origin)
+        let cut = (self.origin, &self.settings.params.section);
+        picker.pick(pose, (cfg.width, cfg.height), x, y, cut)
+    }
+
+    /// Cuts the model open (or not, with [`engine::section::Section::NONE`])
+    /// from the next frame on; a restarted walk keeps the cut.
+    pub fn set_section(&mut self, section: engine::section::Section) {
+        self.settings.params.section = section;
+        if let Some(w) = &mut self.walk {
+            w.set_section(section);
+        }
     }
 
     /// One frame: the front (and its loads) for `front_pose`, drawn from

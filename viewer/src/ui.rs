@@ -44,6 +44,14 @@ pub struct Actions {
     pub clear_selection: bool,
 }
 
+/// A measurement in the view: its ends in pixels and its label.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeasureMark {
+    pub from: (f32, f32),
+    pub to: (f32, f32),
+    pub label: String,
+}
+
 /// What the overlay shows besides the samples.
 pub struct View<'a> {
     pub scene: Option<&'a str>,
@@ -52,6 +60,8 @@ pub struct View<'a> {
     pub selection: Option<&'a crate::picking::Selection>,
     /// The selection's box edges, in pixels.
     pub highlight: Vec<[(f32, f32); 2]>,
+    /// The measurement shown, if any.
+    pub measure: Option<MeasureMark>,
     /// Whether the last frame was complete, and the reps still loading.
     pub complete: Option<(bool, u32)>,
     pub pixels_per_point: f32,
@@ -212,6 +222,12 @@ pub fn draw(
                 if v.orbit { "orbit" } else { "fly" },
                 v.fly_speed
             ));
+            let planes = v.settings.map_or(0, |s| s.params.section.planes().len());
+            ui.label(match planes {
+                0 => "no section (C cuts at eye height, V saves a BCF viewpoint, M measures)"
+                    .to_string(),
+                n => format!("section: {n} plane(s) cut the model; C removes them"),
+            });
             ui.horizontal(|ui| {
                 if ui.button("Frame all (Home)").clicked() {
                     act.frame_all = true;
@@ -272,8 +288,29 @@ fn notices(ctx: &egui::Context, v: &View<'_>, act: &mut Actions) {
                 ui.colored_label(egui::Color32::WHITE, egui::RichText::new(e).size(16.0));
             });
     }
-    let Some(sel) = v.selection else { return };
     let ppp = v.pixels_per_point.max(0.1);
+    if let Some(m) = &v.measure {
+        let painter = ctx.layer_painter(egui::LayerId::new(
+            egui::Order::Background,
+            egui::Id::unique("measure"),
+        ));
+        let (a, b) = (
+            egui::pos2(m.from.0 / ppp, m.from.1 / ppp),
+            egui::pos2(m.to.0 / ppp, m.to.1 / ppp),
+        );
+        let cyan = egui::Color32::from_rgb(0, 220, 255);
+        painter.line_segment([a, b], egui::Stroke::new(2.0, cyan));
+        painter.circle_filled(a, 4.0, cyan);
+        painter.circle_filled(b, 4.0, cyan);
+        painter.text(
+            a + (b - a) * 0.5 + egui::vec2(0.0, -10.0),
+            egui::Align2::CENTER_BOTTOM,
+            &m.label,
+            egui::FontId::proportional(16.0),
+            egui::Color32::WHITE,
+        );
+    }
+    let Some(sel) = v.selection else { return };
     let painter = ctx.layer_painter(egui::LayerId::new(
         egui::Order::Background,
         egui::Id::unique("highlight"),

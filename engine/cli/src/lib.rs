@@ -3,6 +3,7 @@
 //! numbers and sizes through (ranges for every number; sizes capped by what
 //! the machine allows).
 
+use engine::section::Section;
 use std::fmt::Display;
 use std::process::ExitCode;
 use std::str::FromStr;
@@ -230,9 +231,63 @@ pub fn auto_budget(skeleton: &engine::Skeleton) -> u64 {
         .max(1)
 }
 
+/// The section of `--section X,Y,Z,DX,DY,DZ` (repeatable: a plane through
+/// the point removing the side the direction points to, as BCF's clipping
+/// planes) and `--section-box X0,Y0,Z0,X1,Y1,Z1` (only its inside stays),
+/// in scene coordinates (those of camera paths); errors name the option.
+pub fn parse_section(planes: &[String], section_box: Option<&str>) -> anyhow::Result<Section> {
+    use anyhow::Context;
+    let six = |option: &str, s: &str| -> anyhow::Result<[f32; 6]> {
+        let v: Vec<f32> = s
+            .split(',')
+            .map(|x| x.trim().parse::<f32>())
+            .collect::<Result<_, _>>()
+            .ok()
+            .filter(|v: &Vec<f32>| v.len() == 6 && v.iter().all(|x| x.is_finite()))
+            .with_context(|| format!("{option} {s:?}: expected six numbers, e.g. 0,3,0,0,1,0"))?;
+        Ok([v[0], v[1], v[2], v[3], v[4], v[5]])
+    };
+    let mut all = Vec::new();
+    if let Some(b) = section_box {
+        let v = six("--section-box", b)?;
+        let (lo, hi) = (
+            glam::Vec3::new(v[0], v[1], v[2]),
+            glam::Vec3::new(v[3], v[4], v[5]),
+        );
+        let bx = Section::boxed(lo, hi).with_context(|| format!("--section-box {b:?}"))?;
+        all.extend(bx.as_location_direction());
+    }
+    for p in planes {
+        let v = six("--section", p)?;
+        all.push((
+            glam::Vec3::new(v[0], v[1], v[2]),
+            glam::Vec3::new(v[3], v[4], v[5]),
+        ));
+    }
+    Section::from_planes(&all).context("--section / --section-box")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sections_parse_and_name_their_option() {
+        let s = parse_section(&["0,3,0, 0,1,0".into()], Some("-1,-1,-1,1,1,1")).unwrap();
+        assert_eq!(s.planes().len(), 7);
+        assert!(s.keeps(glam::Vec3::ZERO));
+        assert!(!s.keeps(glam::Vec3::new(0.0, 0.0, 1.5)));
+        assert!(parse_section(&[], None).unwrap().is_empty());
+        let e = |p: &[&str], b| {
+            let p: Vec<String> = p.iter().map(|s| s.to_string()).collect();
+            format!("{:#}", parse_section(&p, b).unwrap_err())
+        };
+        assert!(e(&["1,2,3"], None).contains("--section \"1,2,3\""));
+        assert!(e(&["0,0,0,0,0,0"], None).contains("zero vector"));
+        assert!(e(&[], Some("1,1,1,0,0,0")).contains("--section-box"));
+        assert!(e(&["0,0,0,NaN,1,0"], None).contains("six numbers"));
+        assert!(e(&["0,0,0,0,1,0"; 3], Some("0,0,0,1,1,1")).contains("at most 8"));
+    }
 
     #[test]
     fn ranges_reject_nonsense() {

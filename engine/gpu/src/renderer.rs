@@ -106,8 +106,11 @@ pub struct GpuStats {
 struct Globals {
     view_proj: [[f32; 4]; 4],
     eye: [f32; 4],
+    /// The view's section planes (`engine::section`), `section[0]` of them.
+    planes: [[f32; 4]; engine::section::MAX_PLANES],
+    section: [u32; 4],
 }
-const _: () = assert!(size_of::<Globals>() == 80);
+const _: () = assert!(size_of::<Globals>() == 224);
 
 #[derive(Clone, Copy, Debug)]
 struct Slot {
@@ -489,9 +492,15 @@ impl GpuRenderer {
                 .write_buffer(&self.draw_buf, 0, bytemuck::cast_slice(&data));
         }
         if let Some(v) = &self.view {
+            let mut planes = [[0.0; 4]; engine::section::MAX_PLANES];
+            for (d, p) in planes.iter_mut().zip(v.section.planes()) {
+                *d = p.to_array();
+            }
             let g = Globals {
                 view_proj: view_proj(v).to_cols_array_2d(),
                 eye: v.pose.position.extend(1.0).to_array(),
+                planes,
+                section: [v.section.planes().len() as u32, 0, 0, 0],
             };
             self.ctx
                 .queue

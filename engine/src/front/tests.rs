@@ -50,6 +50,7 @@ fn view_from(eye: Vec3, target: Vec3) -> View {
         height_px: 600,
         near: 0.01,
         far: 1e4,
+        section: crate::section::Section::NONE,
     }
 }
 
@@ -127,6 +128,7 @@ mod properties {
                 height_px: 480,
                 near: 0.01,
                 far: 1e4,
+                section: crate::section::Section::NONE,
             };
             let f = v.frustum(0.0);
             let mut front = Vec::new();

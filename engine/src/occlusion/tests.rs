@@ -97,6 +97,7 @@ fn occluders_follow_the_last_frame_across_a_change_of_tolerance() {
         height_px: 480,
         near: 0.1,
         far: 100.0,
+        section: crate::section::Section::NONE,
     };
     let payload = |r: u32| -> Arc<[u8]> { file.read_rep_bytes(r).unwrap().into() };
     let mut c = OcclusionCuller::new(skel.reps.len(), 1 << 20);

@@ -34,6 +34,8 @@ mod mts;
 mod page_tests;
 mod params;
 pub mod resident;
+#[cfg(test)]
+mod section_tests;
 mod select;
 #[cfg(test)]
 mod tests;
@@ -62,7 +64,8 @@ pub const REMOTE_PAGE_BYTES: u64 = 128 << 10;
 /// P_R → P_I.
 enum Cmd {
     Fetch {
-        view: View,
+        /// Boxed: a view with its section is the largest part of a command.
+        view: Box<View>,
         turn_rad: f32,
         front: Arc<Vec<RepId>>,
         /// Reps of the view's front that occlusion culling left out.
@@ -268,6 +271,13 @@ impl Walkthrough {
         Ok(())
     }
 
+    /// Cuts the model open from the next frame on: what `section` removes
+    /// leaves P_R's front and the fronts P_I plans from (each fetch
+    /// command carries the view, and the view its section).
+    pub fn set_section(&mut self, section: crate::section::Section) {
+        self.params.section = section;
+    }
+
     /// The view for a pose under these parameters.
     pub fn view(&self, pose: &Pose) -> View {
         self.params.view(pose)
@@ -308,7 +318,7 @@ impl Walkthrough {
         let front = Arc::new(front);
         self.cmd
             .send(Cmd::Fetch {
-                view,
+                view: Box::new(view),
                 turn_rad,
                 front: front.clone(),
                 hidden: Arc::new(hidden),

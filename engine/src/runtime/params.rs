@@ -146,6 +146,9 @@ pub struct RuntimeParams {
     /// over this many seconds while the other fades out (see
     /// [`crate::fade`]); both are resident, pinned, counted.
     pub fade_s: f32,
+    /// Section planes (none by default): what they remove leaves every
+    /// front, P_R's and P_I's (see [`crate::section`]).
+    pub section: crate::section::Section,
 }
 
 impl Default for RuntimeParams {
@@ -170,6 +173,7 @@ impl Default for RuntimeParams {
             occlusion_bytes: 0,
             governor: None,
             fade_s: 0.0,
+            section: crate::section::Section::NONE,
         }
     }
 }
@@ -270,6 +274,7 @@ impl RuntimeParams {
             height_px: self.height_px,
             near: self.near,
             far: self.far,
+            section: self.section,
         }
     }
 

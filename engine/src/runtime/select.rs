@@ -39,6 +39,9 @@ pub(super) struct FrontSelect {
     tolerance_px: f32,
     /// Bytes the front's reps may take (P_I's footprint).
     capacity: u64,
+    /// The section of the frame being drawn: a rep it cuts is no occluder
+    /// (what hides others may be cut away).
+    section: crate::section::Section,
 }
 
 impl FrontSelect {
@@ -56,6 +59,7 @@ impl FrontSelect {
             governor: governor.map(|g| Governor::new(g, tolerance_px)),
             tolerance_px,
             capacity,
+            section: crate::section::Section::NONE,
         }
     }
 
@@ -90,6 +94,7 @@ impl FrontSelect {
 
     /// Stage I for `view`.
     pub(super) fn select(&mut self, s: &Skeleton, view: &View) -> Selected {
+        self.section = view.section;
         if let Some(c) = &mut self.occlusion {
             c.begin_frame(view);
         }
@@ -119,7 +124,10 @@ impl FrontSelect {
     /// A rep drawn as itself this frame (for the occluders).
     pub(super) fn drawn(&mut self, r: RepId, rec: &RepRecord, payload: &Arc<[u8]>) {
         if let Some(c) = &mut self.occlusion {
-            c.drawn(r, rec, payload, self.index.node_box(rec.node));
+            let (mn, mx) = self.index.node_box(rec.node);
+            if self.section.keeps_whole_box(mn, mx) {
+                c.drawn(r, rec, payload, (mn, mx));
+            }
         }
     }
 

@@ -56,6 +56,7 @@ fn a_fade_in_and_its_fade_out_cover_the_opaque_rep_exactly_once() {
         height_px: H,
         near: 0.01,
         far: 1e4,
+        section: engine::section::Section::NONE,
     };
     let mut shot = |fade: Fade| -> RgbaImage {
         r.capture_next_frame();

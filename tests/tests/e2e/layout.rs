@@ -38,6 +38,7 @@ fn seeks(s: &Skeleton, gap: u64) -> (u64, u64) {
             height_px: 720,
             near: diag * 1e-5,
             far: diag * 10.0,
+            section: engine::section::Section::NONE,
         };
         index.compute(&view, &view.frustum(0.0), 1.0, &mut front);
         let mut new: Vec<_> = front

@@ -17,6 +17,7 @@ mod reencode;
 mod remote;
 mod render;
 mod scenes;
+mod section;
 mod tiles3d;
 mod vdt;
 mod vdt_runtime;

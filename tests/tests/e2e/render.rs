@@ -18,8 +18,8 @@ use engine_gpu::{Colouring, GpuRenderer, RendererConfig};
 use glam::Vec3;
 use hlod_builder::build::{BuildParams, build_file};
 
-const W: u32 = 320;
-const H: u32 = 240;
+pub(crate) const W: u32 = 320;
+pub(crate) const H: u32 = 240;
 
 pub(crate) fn build(glb: &Path) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
@@ -318,6 +318,7 @@ fn a_small_arena_recycles_idle_gpu_copies() {
         height_px: H,
         near: 0.01,
         far: 1e4,
+        section: engine::section::Section::NONE,
     };
     // Frames of two large reps each, cycling through six: every frame must
     // make room by dropping copies that the previous frames left.

@@ -205,6 +205,7 @@ fn compare_in_browser(test: &str, model: &Path, dir: Vec3, reach: f32) {
         height_px: H,
         near: 0.1,
         far: 1e6,
+        section: engine::section::Section::NONE,
     };
     let mut front = Vec::new();
     engine::front::FrontIndex::new(&skel).compute(&view, &view.frustum(0.0), 2.0, &mut front);

@@ -45,6 +45,7 @@ fn view(eye: Vec3, target: Vec3) -> View {
         height_px: 480,
         near: 1e-4,
         far: 1e4,
+        section: engine::section::Section::NONE,
     }
 }
 

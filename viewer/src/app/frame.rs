@@ -103,6 +103,14 @@ impl App {
             self.picked = true;
             self.pick_at(pose, x, y);
         }
+        if complete
+            && !self.measuring.cli_done
+            && let Some([x0, y0, x1, y1]) = self.args.measure
+        {
+            self.measuring.cli_done = true;
+            self.measure_at(pose, x0, y0);
+            self.measure_at(pose, x1, y1);
+        }
         if self.selection.is_some() && self.highlight_pose != Some(*pose) {
             // The highlight follows the camera (repainted only when it moved).
             self.highlight_pose = Some(*pose);

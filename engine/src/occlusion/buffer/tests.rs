@@ -12,6 +12,7 @@ fn view(w: u32, h: u32) -> View {
         height_px: h,
         near: 0.1,
         far: 1e4,
+        section: crate::section::Section::NONE,
     }
 }
 

@@ -116,6 +116,7 @@ fn run(a: Args) -> Result<()> {
             height_px: a.height,
             near: diag * 1e-4,
             far: diag * 100.0,
+            section: engine::section::Section::NONE,
         })
         .collect();
     let budgets = a

@@ -205,6 +205,7 @@ fn run(a: Args) -> Result<()> {
             },
         ),
         fade_s: a.fade,
+        section: engine_cli::parse_section(&a.section, a.section_box.as_deref())?,
         ..RuntimeParams::default()
     };
     println!(

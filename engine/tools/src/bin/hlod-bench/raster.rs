@@ -167,6 +167,7 @@ mod tests {
             height_px: 48,
             near: 0.1,
             far: 100.0,
+            section: engine::section::Section::NONE,
         }
     }
 

@@ -1,0 +1,122 @@
+//! Section planes drawn by the wgpu renderer (lavapipe without a GPU): what
+//! a plane removes is cut away exactly, the cut through a closed solid is
+//! capped, and a node wholly on the removed side leaves the front.
+
+use engine::camera::Pose;
+use engine::runtime::{Mode, Walkthrough};
+use engine::section::Section;
+use engine_gpu::Colouring;
+use glam::{Mat4, Vec3};
+use hlod_builder::mesh::Mesh;
+use hlod_builder::scenegen::glb::{GlbObject, to_glb};
+
+use super::render::{build, load, params, renderer, shot};
+
+/// A closed box `[-h, h]³` centred at `c`, faces wound counter-clockwise
+/// seen from outside, normals outwards.
+fn cube(c: Vec3, h: f32, color: [u8; 4]) -> Mesh {
+    let mut m = Mesh {
+        positions: Vec::new(),
+        normals: Vec::new(),
+        colors: Vec::new(),
+        indices: Vec::new(),
+    };
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            // Two axes spanning the face, u × v = n.
+            let (u, v) = if sign > 0.0 {
+                (n.any_orthonormal_pair().0, n.any_orthonormal_pair().1)
+            } else {
+                let (a, b) = (-n).any_orthonormal_pair();
+                (b, a)
+            };
+            let (u, v) = if u.cross(v).dot(n) > 0.0 {
+                (u, v)
+            } else {
+                (v, u)
+            };
+            let base = m.positions.len() as u32;
+            for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                let p = c + (n + u * su + v * sv) * h;
+                m.positions.push(p.to_array());
+                m.normals.push(n.to_array());
+                m.colors.push(color);
+            }
+            m.indices
+                .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    m
+}
+
+/// The model (in the first folder) built into a scene (in the second).
+fn scene(meshes: &[Mesh]) -> (tempfile::TempDir, tempfile::TempDir, std::path::PathBuf) {
+    let objects: Vec<GlbObject> = (0..meshes.len())
+        .map(|m| GlbObject {
+            name: format!("object {m}"),
+            mesh: m,
+            transform: Mat4::IDENTITY,
+        })
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let glb = dir.path().join("section.glb");
+    std::fs::write(&glb, to_glb(meshes, &objects).unwrap()).unwrap();
+    let (d, scene) = build(&glb);
+    (dir, d, scene)
+}
+
+#[test]
+fn a_section_cuts_away_what_it_removes_and_caps_the_cut() {
+    // Seen from +z: a grey cube in front (z in -1..1) and a green one far
+    // behind it (z in -7..-5), both 2 m wide.
+    let (_model, _d, path) = scene(&[
+        cube(Vec3::ZERO, 1.0, [200, 200, 200, 255]),
+        cube(Vec3::new(0.0, 0.0, -6.0), 1.0, [0, 220, 0, 255]),
+    ]);
+    let (skel, source, data) = load(&path);
+    let test = "a_section_cuts_away_what_it_removes_and_caps_the_cut";
+    let Some(mut r) = renderer(test, data, Colouring::Object) else {
+        return;
+    };
+    let mut walk = Walkthrough::start(skel, source, params(Mode::Incore, 0, 0.5)).unwrap();
+    let eye = Pose::look_at(Vec3::new(0.0, 0.0, 6.0), Vec3::ZERO, 50.0);
+    let (cx, cy) = (super::render::W / 2, super::render::H / 2);
+
+    // No section: the grey cube's lit front face.
+    let whole = shot(&mut walk, &mut r, &eye);
+    let lit = whole.pixel(cx, cy);
+    assert!(lit[0] > 150 && lit[0] == lit[1], "front face {lit:?}");
+
+    // Cut at z = 0, removing +z: the inside of the grey cube's back half,
+    // flat and dark (the cap), where its lit face was.
+    walk.set_section(Section::from_planes(&[(Vec3::ZERO, Vec3::Z)]).unwrap());
+    let cut = shot(&mut walk, &mut r, &eye);
+    let cap = cut.pixel(cx, cy);
+    assert!(
+        cap[0] < lit[0] / 2 && cap[0] > 40 && cap[0] == cap[1],
+        "cap {cap:?} against {lit:?}"
+    );
+    // Beside the cubes nothing changed.
+    assert_eq!(cut.pixel(4, 4), whole.pixel(4, 4));
+
+    // Cut at z = -2: the grey cube is wholly removed, it leaves the front,
+    // and the green cube behind it shows, uncut.
+    walk.set_section(Section::from_planes(&[(Vec3::new(0.0, 0.0, -2.0), Vec3::Z)]).unwrap());
+    r.capture_next_frame();
+    let f = walk.frame(&eye, &mut r).unwrap();
+    let behind = r.take_capture().unwrap();
+    let g = behind.pixel(cx, cy);
+    assert!(g[1] > 100 && g[0] < 40 && g[2] < 40, "green cube {g:?}");
+    assert_eq!(f.front_reps, 1, "only the green cube's rep: {f:?}");
+
+    // A section box that holds nothing: an empty image.
+    walk.set_section(Section::boxed(Vec3::splat(50.0), Vec3::splat(60.0)).unwrap());
+    r.capture_next_frame();
+    let f = walk.frame(&eye, &mut r).unwrap();
+    let empty = r.take_capture().unwrap();
+    assert_eq!(f.front_reps, 0);
+    assert_eq!(empty.pixel(cx, cy), whole.pixel(4, 4));
+    assert!(r.context().take_errors().is_empty());
+}

@@ -1,0 +1,230 @@
+//! The BIM tools in the window: section planes and BCF viewpoints
+//! (`--viewpoint` applied when a scene opens, `--save-viewpoint` at exit,
+//! `V` to save one, `C` to cut the model horizontally at the eye's height
+//! and back), measuring (`M`, then two clicks; `--measure`), and the marks
+//! the overlay draws for them.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use engine::camera::Pose;
+use engine::measure::{Measurement, SnapKind, snap};
+use engine::section::Section;
+use glam::Vec3;
+
+use super::App;
+use crate::viewpoint::{Viewpoint, global_id_of};
+
+/// A pick snaps to a corner or an edge this close on screen (pixels).
+const SNAP_PX: f32 = 8.0;
+
+/// Measuring: on or off (M), the first point of a measurement under way,
+/// and the last measurement.
+#[derive(Debug, Default)]
+pub(super) struct Measuring {
+    pub on: bool,
+    first: Option<(Vec3, SnapKind)>,
+    pub last: Option<Measurement>,
+    /// `--measure` done.
+    pub cli_done: bool,
+}
+
+impl App {
+    /// `M`: clicks measure instead of selecting (and back).
+    pub(super) fn toggle_measuring(&mut self) {
+        let m = &mut self.measuring;
+        m.on = !m.on;
+        m.first = None;
+        self.ui_dirty = true;
+    }
+
+    /// A click at pixel `(x, y)`: a measured point while measuring, else
+    /// a selection.
+    pub(super) fn click_at(&mut self, pose: &Pose, x: f32, y: f32) {
+        if self.measuring.on {
+            self.measure_at(pose, x, y);
+        } else {
+            self.pick_at(pose, x, y);
+        }
+    }
+
+    /// Picks the point under `(x, y)`, snapped to the hit triangle's corner
+    /// or edge within [`SNAP_PX`]; the second point of a pair ends a
+    /// measurement, printed with its distance in metres.
+    pub(super) fn measure_at(&mut self, pose: &Pose, x: f32, y: f32) {
+        let Some(s) = &mut self.session else { return };
+        let cfg = *s.renderer.config();
+        let origin = s.origin;
+        let world = |p: Vec3| {
+            let d = p.as_dvec3();
+            [d.x + origin[0], d.y + origin[1], d.z + origin[2]]
+        };
+        match s.pick(pose, x, y) {
+            Ok(Some(sel)) => {
+                let size = (cfg.width, cfg.height);
+                let (p, kind) = snap(pose, size, (x, y), sel.scene_point, sel.corners, SNAP_PX);
+                match self.measuring.first.take() {
+                    None => {
+                        println!(
+                            "measure: from {:?} ({}) on {}",
+                            world(p),
+                            kind.name(),
+                            sel.name
+                        );
+                        self.measuring.first = Some((p, kind));
+                        self.measuring.last = None;
+                    }
+                    Some((a, ka)) => {
+                        let m = Measurement {
+                            a,
+                            b: p,
+                            snapped: [ka, kind],
+                        };
+                        println!(
+                            "measured {:.3} m from {:?} ({}) to {:?} ({}) on {}",
+                            m.distance(),
+                            world(a),
+                            ka.name(),
+                            world(p),
+                            kind.name(),
+                            sel.name
+                        );
+                        self.measuring.last = Some(m);
+                    }
+                }
+            }
+            Ok(None) => println!("measure at {x},{y}: nothing there"),
+            Err(e) => self.report(format!("measure: {e:#}")),
+        }
+        self.ui_dirty = true;
+    }
+
+    /// The selection's box edges in pixels, for the overlay.
+    pub(super) fn highlight_edges(&self, pose: &Pose) -> Vec<[(f32, f32); 2]> {
+        match (&self.selection, &self.session) {
+            (Some(sel), Some(s)) => {
+                let c = s.renderer.config();
+                crate::picking::box_edges(pose, (c.width, c.height), sel.scene_min, sel.scene_max)
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    /// The last measurement (or the first point of one under way) in
+    /// pixels, and its label, for the overlay.
+    pub(super) fn measure_mark(&self, pose: &Pose) -> Option<crate::ui::MeasureMark> {
+        let s = self.session.as_ref()?;
+        let c = s.renderer.config();
+        let px = |p: Vec3| pose.project(c.width, c.height, p).map(|(x, y, _)| (x, y));
+        if let Some(m) = &self.measuring.last {
+            return Some(crate::ui::MeasureMark {
+                from: px(m.a)?,
+                to: px(m.b)?,
+                label: format!("{:.3} m", m.distance()),
+            });
+        }
+        let (a, _) = self.measuring.first?;
+        let p = px(a)?;
+        Some(crate::ui::MeasureMark {
+            from: p,
+            to: p,
+            label: "click the second point".into(),
+        })
+    }
+
+    /// Applies `--viewpoint` to the scene just opened: its camera and its
+    /// clipping planes. A viewpoint that cannot be read ends the run with
+    /// an error that names it.
+    pub(super) fn apply_viewpoint(&mut self) {
+        let (Some(path), Some(sess)) = (self.args.viewpoint.clone(), &mut self.session) else {
+            return;
+        };
+        let read = read_text(&path)
+            .and_then(|xml| Viewpoint::parse(&xml, sess.origin))
+            .with_context(|| format!("--viewpoint {}", path.display()));
+        let v = match read {
+            Ok(v) => v,
+            Err(e) => {
+                let msg = format!("{e:#}");
+                self.open_failed = Some(msg.clone());
+                self.report(msg);
+                return;
+            }
+        };
+        sess.set_section(v.section);
+        self.settings = sess.settings;
+        self.controls.set_pose(&v.pose);
+        self.play = None;
+        let hidden = if v.default_visible {
+            v.exceptions.len()
+        } else {
+            0
+        };
+        println!(
+            "{}: camera and {} clipping plane(s) applied; {} component(s) selected",
+            path.display(),
+            v.section.planes().len(),
+            v.selected.len()
+        );
+        if hidden > 0 || !v.default_visible {
+            tracing::warn!(
+                "{}: hiding components is not supported yet: every component stays visible",
+                path.display()
+            );
+        }
+    }
+
+    /// The view as a BCF viewpoint, written to `to` (or to the next
+    /// `hlod-view-N.bcfv`).
+    pub(super) fn save_viewpoint(&mut self, to: Option<PathBuf>) -> Result<()> {
+        let Some(sess) = &self.session else {
+            anyhow::bail!("no scene is open");
+        };
+        let to = to.unwrap_or_else(|| PathBuf::from(format!("hlod-view-{:06}.bcfv", self.frames)));
+        let v = Viewpoint {
+            pose: self.frozen.unwrap_or_else(|| self.controls.pose()),
+            section: sess.settings.params.section,
+            selected: self.selection.iter().filter_map(global_id_of).collect(),
+            default_visible: true,
+            exceptions: Vec::new(),
+        };
+        engine::outfile::write_bytes(&to, v.to_xml(sess.origin).as_bytes())
+            .with_context(|| format!("cannot write {}", to.display()))?;
+        println!("viewpoint saved to {}", to.display());
+        Ok(())
+    }
+
+    /// `C`: a horizontal cut at the eye's height (at the model's mid-height
+    /// when the eye is above or below it), removing what lies above; again:
+    /// no cut.
+    pub(super) fn toggle_cut(&mut self) {
+        let Some(sess) = &mut self.session else {
+            return;
+        };
+        let section = if sess.settings.params.section.is_empty() {
+            let (min, max) = sess.bounds();
+            let eye = self.controls.pose().position;
+            let y = if eye.y > min.y && eye.y < max.y {
+                eye.y
+            } else {
+                0.5 * (min.y + max.y)
+            };
+            Section::from_planes(&[(Vec3::new(eye.x, y, eye.z), Vec3::Y)]).unwrap_or_default()
+        } else {
+            Section::NONE
+        };
+        sess.set_section(section);
+        self.settings = sess.settings;
+    }
+}
+
+/// A viewpoint file's text (at most 16 MiB: viewpoints are a few KiB).
+fn read_text(path: &std::path::Path) -> Result<String> {
+    use std::io::Read as _;
+    let f = engine::infile::open(path)?;
+    let mut s = String::new();
+    f.take(16 << 20)
+        .read_to_string(&mut s)
+        .context("not UTF-8 text")?;
+    Ok(s)
+}

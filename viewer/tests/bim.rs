@@ -1,0 +1,291 @@
+//! The BIM tools of `hlod-view` under Xvfb on lavapipe: BCF viewpoints
+//! opened and saved, a section cutting the model, measuring with snaps.
+//! The screenshots are kept in `target/test-output/` (CI artefacts).
+
+mod common;
+
+use engine::image::RgbaImage;
+use glam::Vec3;
+
+use common::{artefacts, can_run, fzk_haus, scene_coverage, view};
+
+/// A BCF 2.1 viewpoint of the box `[min, max]` (scene coordinates) of a
+/// scene at `origin`, seen from a corner above, cut at mid-height when
+/// `cut` (the half above removed).
+fn bcf_viewpoint(min: Vec3, max: Vec3, origin: [f64; 3], cut: bool) -> String {
+    let bcf = |v: Vec3, shift: bool| {
+        let o = if shift { origin } else { [0.0; 3] };
+        let w = [
+            f64::from(v.x) + o[0],
+            f64::from(v.y) + o[1],
+            f64::from(v.z) + o[2],
+        ];
+        format!("<X>{}</X><Y>{}</Y><Z>{}</Z>", w[0], -w[2], w[1])
+    };
+    let c = (min + max) * 0.5;
+    let eye = c + Vec3::new(1.0, 0.6, 1.0) * (max - min).length() * 0.8;
+    let dir = (c - eye).normalize();
+    let planes = if cut {
+        format!(
+            "<ClippingPlanes><ClippingPlane><Location>{}</Location><Direction>{}</Direction></ClippingPlane></ClippingPlanes>",
+            bcf(c, true),
+            bcf(Vec3::Y, false)
+        )
+    } else {
+        String::new()
+    };
+    format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<VisualizationInfo Guid=\"0e2000cc-c831-4cea-a847-a3d87ae572ff\">\
+         <Components><Visibility DefaultVisibility=\"true\"/></Components><PerspectiveCamera>\
+         <CameraViewPoint>{}</CameraViewPoint><CameraDirection>{}</CameraDirection>\
+         <CameraUpVector>{}</CameraUpVector><FieldOfView>50</FieldOfView></PerspectiveCamera>{planes}</VisualizationInfo>",
+        bcf(eye, true),
+        bcf(dir, false),
+        bcf(Vec3::Y, false)
+    )
+}
+
+/// The first row (from the top) right of the panel with the model in it.
+fn top_row(img: &RgbaImage) -> u32 {
+    (0..img.height)
+        .find(|&y| {
+            (img.width * 6 / 10..img.width).any(|x| {
+                let p = img.pixel(x, y);
+                (0..3)
+                    .map(|c| p[c].abs_diff([23u8, 26, 31][c]))
+                    .max()
+                    .unwrap()
+                    > 12
+            })
+        })
+        .unwrap_or(img.height)
+}
+
+#[test]
+fn opens_at_a_bcf_viewpoint_cuts_the_model_and_saves_the_view() {
+    if !can_run("opens_at_a_bcf_viewpoint_cuts_the_model_and_saves_the_view") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = d.join("haus.hlod");
+    hlod_builder::build::build_file(&fzk_haus(), &scene, &Default::default(), false).unwrap();
+    let file = engine::SceneFile::open(&scene).unwrap();
+    let r = &file.skeleton().nodes[0];
+    let (min, max) = (Vec3::from(r.bbox_min), Vec3::from(r.bbox_max));
+    let origin = file.meta().origin;
+    let mut tops = Vec::new();
+    for cut in [false, true] {
+        let vp = d.join(format!("in-{cut}.bcfv"));
+        std::fs::write(&vp, bcf_viewpoint(min, max, origin, cut)).unwrap();
+        let (shot, saved) = (format!("{cut}.png"), format!("out-{cut}.bcfv"));
+        let out = view(
+            d,
+            &[
+                scene.to_str().unwrap(),
+                "--viewpoint",
+                vp.to_str().unwrap(),
+                "--save-viewpoint",
+                &saved,
+                "--exit-when-complete",
+                "--screenshot",
+                &shot,
+                "--width",
+                "800",
+                "--height",
+                "450",
+            ],
+        );
+        let so = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let planes = format!("camera and {} clipping plane(s) applied", u32::from(cut));
+        assert!(so.contains(&planes), "{so}");
+        let img = RgbaImage::load_png(&d.join(&shot)).unwrap();
+        std::fs::copy(
+            d.join(&shot),
+            artefacts().join(format!("viewer-bcf-cut-{cut}.png")),
+        )
+        .unwrap();
+        assert!(scene_coverage(&img) > 0.02, "the model is visible");
+        tops.push(top_row(&img));
+        // The view saved is the view opened: camera and planes, in BCF's
+        // coordinates, read back by an XML parser.
+        let xml = std::fs::read_to_string(d.join(&saved)).unwrap();
+        let doc = roxmltree::Document::parse(&xml).unwrap();
+        let nums = |tag: &str| -> Vec<f64> {
+            let n = doc.descendants().find(|n| n.has_tag_name(tag)).unwrap();
+            ["X", "Y", "Z"]
+                .iter()
+                .map(|a| {
+                    let c = n.children().find(|c| c.has_tag_name(*a)).unwrap();
+                    c.text().unwrap().parse().unwrap()
+                })
+                .collect()
+        };
+        let c = (min + max) * 0.5;
+        let eye = c + Vec3::new(1.0, 0.6, 1.0) * (max - min).length() * 0.8;
+        let want = [
+            f64::from(eye.x) + origin[0],
+            -(f64::from(eye.z) + origin[2]),
+            f64::from(eye.y) + origin[1],
+        ];
+        let got = nums("CameraViewPoint");
+        for k in 0..3 {
+            assert!((got[k] - want[k]).abs() < 1e-2, "{got:?} {want:?}");
+        }
+        let saved_planes = doc
+            .descendants()
+            .filter(|n| n.has_tag_name("ClippingPlane"))
+            .count();
+        assert_eq!(saved_planes, usize::from(cut), "{xml}");
+        if cut {
+            let loc = nums("Location");
+            assert!(
+                (loc[2] - (f64::from(c.y) + origin[1])).abs() < 1e-2,
+                "{loc:?}"
+            );
+            assert_eq!(nums("Direction"), [0.0, 0.0, 1.0]);
+        }
+    }
+    // The roof is gone: the model starts lower in the cut view.
+    assert!(tops[1] > tops[0] + 10, "top rows {tops:?}");
+}
+
+/// A closed box `[-h, h]³`, faces wound counter-clockwise from outside.
+fn cube(h: f32) -> hlod_builder::mesh::Mesh {
+    let mut m = hlod_builder::mesh::Mesh {
+        positions: Vec::new(),
+        normals: Vec::new(),
+        colors: Vec::new(),
+        indices: Vec::new(),
+    };
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            let (mut u, mut v) = n.any_orthonormal_pair();
+            if u.cross(v).dot(n) < 0.0 {
+                std::mem::swap(&mut u, &mut v);
+            }
+            let base = m.positions.len() as u32;
+            for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                m.positions.push(((n + u * su + v * sv) * h).to_array());
+                m.normals.push(n.to_array());
+                m.colors.push([180, 180, 200, 255]);
+            }
+            m.indices
+                .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    m
+}
+
+#[test]
+fn measures_between_two_snapped_corners_in_metres() {
+    if !can_run("measures_between_two_snapped_corners_in_metres") {
+        return;
+    }
+    use hlod_builder::scenegen::glb::{GlbObject, to_glb};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A 2 m cube at the origin, seen face-on from 6 m along +z.
+    let objects = [GlbObject {
+        name: "cube".into(),
+        mesh: 0,
+        transform: glam::Mat4::IDENTITY,
+    }];
+    std::fs::write(d.join("cube.glb"), to_glb(&[cube(1.0)], &objects).unwrap()).unwrap();
+    let scene = d.join("cube.hlod");
+    hlod_builder::build::build_file(&d.join("cube.glb"), &scene, &Default::default(), false)
+        .unwrap();
+    let origin = engine::SceneFile::open(&scene).unwrap().meta().origin;
+    let bcf = |v: [f64; 3], at: bool| {
+        let o = if at { origin } else { [0.0; 3] };
+        format!(
+            "<X>{}</X><Y>{}</Y><Z>{}</Z>",
+            v[0] + o[0],
+            -(v[2] + o[2]),
+            v[1] + o[1]
+        )
+    };
+    let vp = format!(
+        "<VisualizationInfo><Components><Visibility DefaultVisibility=\"true\"/></Components>\
+         <PerspectiveCamera><CameraViewPoint>{}</CameraViewPoint><CameraDirection>{}</CameraDirection>\
+         <CameraUpVector>{}</CameraUpVector><FieldOfView>50</FieldOfView></PerspectiveCamera></VisualizationInfo>",
+        bcf([0.0, 0.0, 6.0], true),
+        bcf([0.0, 0.0, -1.0], false),
+        bcf([0.0, 1.0, 0.0], false)
+    );
+    std::fs::write(d.join("front.bcfv"), vp).unwrap();
+    // The front face's lower corners on screen, clicked 3 px inside them.
+    let pose = engine::camera::Pose::look_at(Vec3::new(0.0, 0.0, 6.0), Vec3::ZERO, 50.0);
+    let px = |p: Vec3| pose.project(800, 450, p).unwrap();
+    let (a, b) = (
+        px(Vec3::new(-1.0, -1.0, 1.0)),
+        px(Vec3::new(1.0, -1.0, 1.0)),
+    );
+    let clicks = format!("{},{},{},{}", a.0 + 3.0, a.1 - 3.0, b.0 - 3.0, b.1 - 3.0);
+    let out = view(
+        d,
+        &[
+            scene.to_str().unwrap(),
+            "--viewpoint",
+            "front.bcfv",
+            "--measure",
+            &clicks,
+            "--exit-when-complete",
+            "--screenshot",
+            "measure.png",
+            "--width",
+            "800",
+            "--height",
+            "450",
+        ],
+    );
+    let so = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::copy(
+        d.join("measure.png"),
+        artefacts().join("viewer-measure.png"),
+    )
+    .unwrap();
+    let line = so
+        .lines()
+        .find(|l| l.starts_with("measured "))
+        .unwrap_or_else(|| panic!("{so}"));
+    // Both ends snapped to the corners: exactly the cube's 2 m edge.
+    assert!(line.starts_with("measured 2.000 m from"), "{line}");
+    assert_eq!(line.matches("(vertex)").count(), 2, "{line}");
+    // Clicked on the face away from its edges (and from the diagonals of
+    // its two triangles): not snapped, 1 m apart.
+    let (l, r) = (px(Vec3::new(-0.5, 0.0, 1.0)), px(Vec3::new(0.5, 0.0, 1.0)));
+    let clicks = format!("{},{},{},{}", l.0, l.1, r.0, r.1);
+    let out = view(
+        d,
+        &[
+            scene.to_str().unwrap(),
+            "--viewpoint",
+            "front.bcfv",
+            "--measure",
+            &clicks,
+            "--exit-when-complete",
+            "--width",
+            "800",
+            "--height",
+            "450",
+        ],
+    );
+    let so = String::from_utf8_lossy(&out.stdout).into_owned();
+    let line = so.lines().find(|l| l.starts_with("measured ")).unwrap();
+    assert_eq!(line.matches("(face)").count(), 2, "{line}");
+    let got: f32 = line.split_whitespace().nth(1).unwrap().parse().unwrap();
+    assert!((got - 1.0).abs() < 0.005, "{line}");
+}
