@@ -133,7 +133,7 @@ impl App {
     }
 
     /// Applies `--viewpoint` to the scene just opened: its camera and its
-    /// clipping planes. A viewpoint that cannot be read ends the run with
+    /// clipping planes (with those given on the command line). A viewpoint that cannot be read ends the run with
     /// an error that names it.
     pub(super) fn apply_viewpoint(&mut self) {
         let (Some(path), Some(sess)) = (self.args.viewpoint.clone(), &mut self.session) else {
@@ -142,6 +142,15 @@ impl App {
         let read = read_text(&path)
             .and_then(|xml| Viewpoint::parse(&xml, sess.origin))
             .with_context(|| format!("--viewpoint {}", path.display()));
+        // The viewpoint's planes, and those of --section / --section-box.
+        let cli = sess.settings.params.section;
+        let read = read.and_then(|v| {
+            let mut planes = v.section.as_location_direction();
+            planes.extend(cli.as_location_direction());
+            let section = Section::from_planes(&planes)
+                .context("its clipping planes with --section / --section-box")?;
+            Ok(Viewpoint { section, ..v })
+        });
         let v = match read {
             Ok(v) => v,
             Err(e) => {
