@@ -116,6 +116,17 @@ impl Section {
         s
     }
 
+    /// Every plane moved by `by` along its kept side's outward direction:
+    /// `by > 0` keeps more (a box grows, a cut rises above what it keeps),
+    /// `by < 0` keeps less.
+    pub fn grown(&self, by: f32) -> Self {
+        let mut s = *self;
+        for p in &mut s.planes[..usize::from(self.count)] {
+            p.w += by;
+        }
+        s
+    }
+
     /// Whether `p` is kept.
     pub fn keeps(&self, p: Vec3) -> bool {
         self.planes()
@@ -198,6 +209,17 @@ mod tests {
         for p in [Vec3::new(1.5, 2.0, 3.0), Vec3::new(0.0, 2.0, 3.0)] {
             assert_eq!(s.keeps(p), moved.keeps(p + off), "{p}");
         }
+    }
+
+    #[test]
+    fn growing_moves_every_plane_outwards() {
+        let s = Section::boxed(Vec3::ZERO, Vec3::ONE).unwrap();
+        let big = s.grown(0.5);
+        assert!(big.keeps(Vec3::splat(1.4)) && !s.keeps(Vec3::splat(1.4)));
+        assert!(big.keeps(Vec3::splat(-0.4)) && !big.keeps(Vec3::splat(-0.6)));
+        let cut = Section::from_planes(&[(Vec3::new(0.0, 2.0, 0.0), Vec3::Y)]).unwrap();
+        assert!(cut.grown(0.25).keeps(Vec3::new(0.0, 2.2, 0.0)));
+        assert!(!cut.grown(-0.25).keeps(Vec3::new(0.0, 1.8, 0.0)));
     }
 
     #[test]

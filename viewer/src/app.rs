@@ -300,6 +300,14 @@ impl App {
             KeyCode::KeyR => self.toggle_record(),
             KeyCode::F12 => self.shots.pending = Some(self.next_shot_name()),
             KeyCode::KeyC => self.toggle_cut(),
+            KeyCode::KeyB => self.toggle_box(),
+            KeyCode::BracketRight | KeyCode::BracketLeft => {
+                self.move_section(if code == KeyCode::BracketRight {
+                    0.25
+                } else {
+                    -0.25
+                });
+            }
             KeyCode::KeyM => self.toggle_measuring(),
             KeyCode::KeyV => self
                 .save_viewpoint(None)

@@ -224,9 +224,10 @@ pub fn draw(
             ));
             let planes = v.settings.map_or(0, |s| s.params.section.planes().len());
             ui.label(match planes {
-                0 => "no section (C cuts at eye height, V saves a BCF viewpoint, M measures)"
+                0 => "no section (C cuts at eye height, B boxes the selection; V saves a BCF \
+                      viewpoint, M measures)"
                     .to_string(),
-                n => format!("section: {n} plane(s) cut the model; C removes them"),
+                n => format!("section: {n} plane(s) cut the model ([ ] move them; C or B: off)"),
             });
             ui.horizontal(|ui| {
                 if ui.button("Frame all (Home)").clicked() {

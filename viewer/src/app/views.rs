@@ -1,7 +1,8 @@
 //! The BIM tools in the window: section planes and BCF viewpoints
 //! (`--viewpoint` applied when a scene opens, `--save-viewpoint` at exit,
 //! `V` to save one, `C` to cut the model horizontally at the eye's height
-//! and back), measuring (`M`, then two clicks; `--measure`), and the marks
+//! and back, `B` to box the selected element, `[` and `]` to move the
+//! planes), measuring (`M`, then two clicks; `--measure`), and the marks
 //! the overlay draws for them.
 
 use std::path::PathBuf;
@@ -224,6 +225,39 @@ impl App {
         };
         sess.set_section(section);
         self.settings = sess.settings;
+    }
+
+    /// `B`: a section box around the selected element (half a metre
+    /// around its box); again: no section.
+    pub(super) fn toggle_box(&mut self) {
+        let Some(sess) = &mut self.session else {
+            return;
+        };
+        let section = match (&self.selection, sess.settings.params.section.is_empty()) {
+            (Some(sel), true) => Section::boxed(sel.scene_min, sel.scene_max)
+                .or_else(|_| Section::boxed(sel.scene_min - 0.01, sel.scene_max + 0.01))
+                .map(|b| b.grown(0.5))
+                .unwrap_or_default(),
+            (None, true) => {
+                self.report("B boxes the selected element: select one first (left click)".into());
+                return;
+            }
+            (_, false) => Section::NONE,
+        };
+        sess.set_section(section);
+        self.settings = sess.settings;
+    }
+
+    /// `]` and `[`: every section plane a quarter metre outwards (keeping
+    /// more) or inwards.
+    pub(super) fn move_section(&mut self, by: f32) {
+        if let Some(sess) = &mut self.session {
+            let s = sess.settings.params.section;
+            if !s.is_empty() {
+                sess.set_section(s.grown(by));
+                self.settings = sess.settings;
+            }
+        }
     }
 }
 
