@@ -8,14 +8,20 @@
 //! its finest rep. Distances are taken to the node's box (rep boxes lie inside
 //! it), so the projected error is conservative.
 
+use std::sync::atomic::{AtomicU8, Ordering};
+
 use glam::Vec3;
 
 use crate::camera::{Frustum, View, box_distance};
+use crate::hide::NodeVis;
 use crate::skeleton::{RepId, Skeleton};
 
 /// Per-node data laid out for a fast traversal.
 #[derive(Clone, Debug)]
 pub struct FrontIndex {
+    /// Each node's [`NodeVis`] as a byte: shared by P_R and P_I through
+    /// the index's `Arc`, set by [`FrontIndex::set_visibility`].
+    vis: VisMask,
     min: Vec<Vec3>,
     max: Vec<Vec3>,
     first_child: Vec<u32>,
@@ -36,6 +42,7 @@ impl FrontIndex {
     /// Prepares the skeleton for traversal.
     pub fn new(s: &Skeleton) -> Self {
         Self {
+            vis: VisMask(s.nodes.iter().map(|_| AtomicU8::new(0)).collect()),
             min: s.nodes.iter().map(|n| Vec3::from(n.bbox_min)).collect(),
             max: s.nodes.iter().map(|n| Vec3::from(n.bbox_max)).collect(),
             first_child: s.nodes.iter().map(|n| n.first_child).collect(),
@@ -71,11 +78,19 @@ impl FrontIndex {
             if !frustum.intersects(mn, mx) {
                 continue;
             }
+            let vis = self.vis.0[i].load(Ordering::Relaxed);
+            if vis == NodeVis::Hidden as u8 {
+                continue;
+            }
             let dist = box_distance(eye, mn, mx).max(view.near);
             // ε_N[i] = E_i * k / dist < tol  <=>  E_i < tol * dist / k
             let limit = tol_px * dist / k;
             let (fr, rc) = (self.first_rep[i], self.rep_count[i]);
-            let chosen = (fr..fr + rc).find(|&r| self.errors[r as usize] < limit);
+            // A node with hidden objects below it draws none of its own
+            // reps (a leaf: its finest, drawn in part).
+            let chosen = (vis == NodeVis::Shown as u8)
+                .then(|| (fr..fr + rc).find(|&r| self.errors[r as usize] < limit))
+                .flatten();
             match chosen {
                 Some(r) => out.push(r),
                 None if self.child_count[i] == 0 => out.push(fr + rc - 1),
@@ -111,6 +126,31 @@ impl FrontIndex {
     /// The node's box.
     pub fn node_box(&self, node: u32) -> (Vec3, Vec3) {
         (self.min[node as usize], self.max[node as usize])
+    }
+
+    /// What may be drawn of each node from now on, for every front
+    /// computed through this index (P_R's and P_I's: they share it).
+    /// `vis` has one entry per node; a shorter one leaves the rest shown.
+    pub fn set_visibility(&self, vis: &[NodeVis]) {
+        for (i, a) in self.vis.0.iter().enumerate() {
+            let v = vis.get(i).copied().unwrap_or_default();
+            a.store(v as u8, Ordering::Relaxed);
+        }
+    }
+}
+
+/// Per-node visibility bytes (a clone copies the current values).
+#[derive(Debug)]
+struct VisMask(Vec<AtomicU8>);
+
+impl Clone for VisMask {
+    fn clone(&self) -> Self {
+        Self(
+            self.0
+                .iter()
+                .map(|a| AtomicU8::new(a.load(Ordering::Relaxed)))
+                .collect(),
+        )
     }
 }
 

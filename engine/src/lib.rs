@@ -31,7 +31,8 @@
 //! - [`measure`]: point-to-point distances, picks snapped to a corner or edge.
 //! - [`pick`]: the object under a pixel (leaf boxes, then the finest rep's
 //!   triangles), resolved through the scene file's object section.
-//! - [`section`]: section planes and boxes, culled with the frustum.
+//! - [`section`]: section planes and boxes, culled with the frustum;
+//!   [`hide`]: hidden elements, which nodes leave the front.
 //! - [`limits`] (checked durations, allocations and reads bounded by the
 //!   file and the machine) and [`outfile`] (the output-file policy of every
 //!   writer: regular or new files only, never an input, atomic, cleaned up).
@@ -58,6 +59,7 @@ pub mod fade;
 pub mod format;
 pub mod front;
 pub mod governor;
+pub mod hide;
 pub mod image;
 pub mod infile;
 pub mod interior;

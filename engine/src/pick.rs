@@ -76,16 +76,17 @@ pub fn pick<S: ByteSource>(
     origin: Vec3,
     dir: Vec3,
 ) -> Result<Option<Hit>, FormatError> {
-    pick_cut(scene, objects, origin, dir, &Section::NONE)
+    pick_cut(scene, objects, origin, dir, (&Section::NONE, &|_| true))
 }
 
-/// [`pick`] in a model cut open by `section`: what it cuts away is not hit.
+/// [`pick`] in a model cut open by `section`, of the objects `shown`
+/// keeps: what the cut removes and hidden objects are not hit.
 pub fn pick_cut<S: ByteSource>(
     scene: &SceneFile<S>,
     objects: &ObjectTable,
     origin: Vec3,
     dir: Vec3,
-    section: &Section,
+    (section, shown): (&Section, &dyn Fn(u32) -> bool),
 ) -> Result<Option<Hit>, FormatError> {
     let dir = dir.normalize_or_zero();
     if dir == Vec3::ZERO || !origin.is_finite() {
@@ -134,7 +135,8 @@ pub fn pick_cut<S: ByteSource>(
             ) else {
                 continue;
             };
-            if best.is_none_or(|b| d < b.t) && section.keeps(origin + dir * d) {
+            let visible = || objects.object_at(s, node, k as u32).is_none_or(shown);
+            if best.is_none_or(|b| d < b.t) && section.keeps(origin + dir * d) && visible() {
                 best = Some(Hit {
                     node,
                     rep,
@@ -206,9 +208,15 @@ mod tests {
         // Everything beyond x = 1.2 cut away: leaf 1 is cut, leaf 2 removed.
         let cut = Section::from_planes(&[(Vec3::new(1.2, 0.0, 0.0), Vec3::X)]).unwrap();
         let at = |x: f32, s: &Section| {
-            pick_cut(&scene, &table, Vec3::new(x, 0.4, 5.0), Vec3::NEG_Z, s)
-                .unwrap()
-                .map(|h| h.node)
+            pick_cut(
+                &scene,
+                &table,
+                Vec3::new(x, 0.4, 5.0),
+                Vec3::NEG_Z,
+                (s, &|_| true),
+            )
+            .unwrap()
+            .map(|h| h.node)
         };
         let leaf = |k: u32| Some(1 + k);
         assert_eq!(at(1.1, &cut), leaf(1));

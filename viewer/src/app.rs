@@ -301,6 +301,9 @@ impl App {
             KeyCode::F12 => self.shots.pending = Some(self.next_shot_name()),
             KeyCode::KeyC => self.toggle_cut(),
             KeyCode::KeyB => self.toggle_box(),
+            KeyCode::KeyH => self.hide_key('h'),
+            KeyCode::KeyI => self.hide_key('i'),
+            KeyCode::KeyU => self.hide_key('u'),
             KeyCode::BracketRight | KeyCode::BracketLeft => {
                 self.move_section(if code == KeyCode::BracketRight {
                     0.25

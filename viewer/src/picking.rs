@@ -42,6 +42,17 @@ pub struct Selection {
 }
 
 impl Picker {
+    /// The scene's object section.
+    pub fn objects(&self) -> &ObjectTable {
+        &self.objects
+    }
+
+    /// Object `k`'s GlobalId, if its description carries one.
+    pub fn global_id(&self, k: u32) -> Option<String> {
+        let id = hlod_builder::tiles3d::element(k, self.objects.info(k)?).global_id;
+        (!id.is_empty()).then_some(id)
+    }
+
     pub fn open(path: &Path, handle: &SceneHandle) -> Result<Self> {
         let named = || path.display().to_string();
         let src = handle.raw().with_context(named)?;
@@ -51,17 +62,19 @@ impl Picker {
     }
 
     /// The element under pixel `(x, y)` of a `size` viewport seen from
-    /// `pose`, in the model cut open by `section`.
+    /// `pose`, in the model cut open by `section`, hidden objects left out.
     pub fn pick(
         &self,
         pose: &engine::camera::Pose,
         size: (u32, u32),
         x: f32,
         y: f32,
-        (origin, section): ([f64; 3], &engine::section::Section),
+        (origin, section, hidden): ([f64; 3], &engine::section::Section, &[bool]),
     ) -> Result<Option<Selection>> {
         let (o, d) = pose.ray(size.0, size.1, x, y);
-        let Some(hit) = engine::pick::pick_cut(&self.scene, &self.objects, o, d, section)? else {
+        let shown = |k: u32| !hidden.get(k as usize).copied().unwrap_or(false);
+        let cut = (section, &shown as &dyn Fn(u32) -> bool);
+        let Some(hit) = engine::pick::pick_cut(&self.scene, &self.objects, o, d, cut)? else {
             return Ok(None);
         };
         let world = |p: Vec3| -> [f64; 3] {

@@ -43,6 +43,9 @@ pub struct Session {
     pub origin: [f64; 3],
     /// The scene file and its object section, opened at the first pick.
     picker: Option<crate::picking::Picker>,
+    /// Hidden objects (by object number) and what they make of the nodes.
+    hidden: Vec<bool>,
+    hiding: Option<engine::hide::Hiding>,
 }
 
 impl std::fmt::Debug for Session {
@@ -105,6 +108,8 @@ impl Session {
             settings,
             origin,
             picker: None,
+            hidden: Vec::new(),
+            hiding: None,
         })
     }
 
@@ -115,14 +120,57 @@ impl Session {
         x: f32,
         y: f32,
     ) -> Result<Option<crate::picking::Selection>> {
+        let cfg = *self.renderer.config();
+        let (origin, section) = (self.origin, self.settings.params.section);
+        let hidden = std::mem::take(&mut self.hidden);
+        let got = self.picker().and_then(|p| {
+            p.pick(
+                pose,
+                (cfg.width, cfg.height),
+                x,
+                y,
+                (origin, &section, &hidden),
+            )
+        });
+        self.hidden = hidden;
+        got
+    }
+
+    /// The scene's object section and GlobalIds (opened once).
+    pub fn picker(&mut self) -> Result<&crate::picking::Picker> {
         if self.picker.is_none() {
             let p = crate::picking::Picker::open(&self.path, &self.handle)?;
             self.picker = Some(p);
         }
-        let cfg = *self.renderer.config();
-        let picker = self.picker.as_ref().expect("opened above");
-        let cut = (self.origin, &self.settings.params.section);
-        picker.pick(pose, (cfg.width, cfg.height), x, y, cut)
+        Ok(self.picker.as_ref().expect("opened above"))
+    }
+
+    /// Hides the objects `hidden` marks (one flag per object; an empty
+    /// list shows everything) from the next frame on: they leave the front
+    /// and are not fetched. Returns how many are hidden.
+    pub fn set_hidden(&mut self, hidden: Vec<bool>) -> Result<usize> {
+        let skel = self.skeleton.clone();
+        let h = {
+            let table = self.picker()?.objects();
+            engine::hide::Hiding::new(&skel, table, |k| hidden.get(k as usize) == Some(&true))
+        };
+        let n = h.hidden_objects();
+        self.hidden = hidden;
+        self.hiding = Some(h);
+        self.apply_hiding();
+        Ok(n)
+    }
+
+    /// The hidden objects' flags (empty: none hidden).
+    pub fn hidden(&self) -> &[bool] {
+        &self.hidden
+    }
+
+    fn apply_hiding(&mut self) {
+        if let (Some(h), Some(w)) = (&self.hiding, &mut self.walk) {
+            w.set_hiding(h);
+            engine::render::Renderer::set_partial(&mut self.renderer, h.triangle_ranges());
+        }
     }
 
     /// Cuts the model open (or not, with [`engine::section::Section::NONE`])
@@ -192,6 +240,7 @@ impl Session {
                 start(&target, ctx, &s, (cfg.width, cfg.height), cfg.color_format)?;
             self.walk = Some(walk);
             self.renderer = renderer;
+            self.apply_hiding();
         }
         Ok(())
     }

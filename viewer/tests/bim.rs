@@ -289,3 +289,106 @@ fn measures_between_two_snapped_corners_in_metres() {
     let got: f32 = line.split_whitespace().nth(1).unwrap().parse().unwrap();
     assert!((got - 1.0).abs() < 0.005, "{line}");
 }
+
+#[test]
+fn a_viewpoint_hides_its_components_and_the_view_saved_lists_them() {
+    if !can_run("a_viewpoint_hides_its_components_and_the_view_saved_lists_them") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = d.join("haus.hlod");
+    hlod_builder::build::build_file(&fzk_haus(), &scene, &Default::default(), false).unwrap();
+    let file = engine::SceneFile::open(&scene).unwrap();
+    let r = &file.skeleton().nodes[0];
+    let (min, max) = (Vec3::from(r.bbox_min), Vec3::from(r.bbox_max));
+    let origin = file.meta().origin;
+    // The FZK-Haus's two roof slabs.
+    let roofs = ["07Enbsqm9C7AQC9iyBwfSD", "2IxUUNUVPB6Ob$eicCfP2N"];
+    let components = |default: bool, ids: &[&str]| {
+        let list: String = ids
+            .iter()
+            .map(|g| format!("<Component IfcGuid=\"{g}\"/>"))
+            .collect();
+        format!(
+            "<Components><Visibility DefaultVisibility=\"{default}\"><Exceptions>{list}</Exceptions></Visibility></Components>"
+        )
+    };
+    let plain = "<Components><Visibility DefaultVisibility=\"true\"/></Components>";
+    let mut tops = Vec::new();
+    for (name, comps) in [
+        ("all", plain.to_string()),
+        ("roofless", components(true, &roofs)),
+        ("roof-only", components(false, &roofs)),
+    ] {
+        let vp = d.join(format!("{name}.bcfv"));
+        let xml = bcf_viewpoint(min, max, origin, false).replace(plain, &comps);
+        std::fs::write(&vp, xml).unwrap();
+        let (shot, saved) = (format!("{name}.png"), format!("{name}-out.bcfv"));
+        let out = view(
+            d,
+            &[
+                scene.to_str().unwrap(),
+                "--viewpoint",
+                vp.to_str().unwrap(),
+                "--save-viewpoint",
+                &saved,
+                "--exit-when-complete",
+                "--screenshot",
+                &shot,
+                "--width",
+                "800",
+                "--height",
+                "450",
+            ],
+        );
+        let so = String::from_utf8_lossy(&out.stdout).into_owned();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let img = RgbaImage::load_png(&d.join(&shot)).unwrap();
+        std::fs::copy(
+            d.join(&shot),
+            artefacts().join(format!("viewer-bcf-{name}.png")),
+        )
+        .unwrap();
+        let xml = std::fs::read_to_string(d.join(&saved)).unwrap();
+        match name {
+            "all" => assert!(!so.contains("hidden"), "{so}"),
+            "roofless" => {
+                assert!(
+                    so.contains("2 element(s) hidden (2 of its 2 listed"),
+                    "{so}"
+                );
+                assert!(xml.contains("DefaultVisibility=\"true\""), "{xml}");
+                assert!(roofs.iter().all(|g| xml.contains(g)), "{xml}");
+            }
+            _ => {
+                let line = so
+                    .lines()
+                    .find(|l| l.contains("element(s) hidden"))
+                    .unwrap();
+                assert!(line.contains("(2 of its 2 listed"), "{line}");
+                // Isolated: saved as the shown ones against a hidden default.
+                assert!(xml.contains("DefaultVisibility=\"false\""), "{xml}");
+                assert!(roofs.iter().all(|g| xml.contains(g)), "{xml}");
+            }
+        }
+        // The roof's tiles: orange pixels.
+        let orange = (0..img.height)
+            .flat_map(|y| (0..img.width).map(move |x| (x, y)))
+            .filter(|&(x, y)| {
+                let p = img.pixel(x, y);
+                p[0] > 150 && p[1] > 40 && p[1] < 130 && p[2] < 60
+            })
+            .count();
+        tops.push((orange, scene_coverage(&img)));
+    }
+    // Without its roof no tile shows; the roof alone shows as many tiles
+    // as the whole house (nothing of it was hidden by walls) and less else.
+    assert!(tops[0].0 > 300 && tops[1].0 < tops[0].0 / 50, "{tops:?}");
+    assert!(tops[2].0 as f64 > tops[0].0 as f64 * 0.9, "{tops:?}");
+    assert!(tops[2].1 < tops[0].1 * 0.8, "{tops:?}");
+}

@@ -171,6 +171,9 @@ pub struct GpuRenderer {
     stats: GpuStats,
     warned: HashSet<RepId>,
     repacking: bool,
+    /// Reps drawn in part: the triangle ranges still shown
+    /// ([`Renderer::set_partial`]).
+    partial: HashMap<RepId, Vec<std::ops::Range<u32>>>,
 }
 
 impl GpuRenderer {
@@ -257,6 +260,7 @@ impl GpuRenderer {
             stats: GpuStats::default(),
             warned: HashSet::new(),
             repacking: false,
+            partial: HashMap::new(),
         })
     }
 
@@ -576,13 +580,21 @@ impl GpuRenderer {
                 bound = Some(key);
             }
             let isize = if s.index_u32 { 4 } else { 2 };
-            let first = (s.alloc.offset + u64::from(s.vertex_count) * 16) / isize as u64;
+            let first = ((s.alloc.offset + u64::from(s.vertex_count) * 16) / isize as u64) as u32;
             let base = (s.alloc.offset / 16) as i32;
-            pass.draw_indexed(
-                first as u32..first as u32 + s.index_count,
-                base,
-                k as u32..k as u32 + 1,
-            );
+            let k32 = k as u32;
+            match self.partial.get(&self.frame_draws[draws[k].0].rep) {
+                None => pass.draw_indexed(first..first + s.index_count, base, k32..k32 + 1),
+                Some(ranges) => {
+                    for r in ranges {
+                        let (a, b) = (
+                            (3 * r.start).min(s.index_count),
+                            (3 * r.end).min(s.index_count),
+                        );
+                        pass.draw_indexed(first + a..first + b, base, k32..k32 + 1);
+                    }
+                }
+            }
         }
         issued
     }
@@ -612,6 +624,10 @@ impl GpuRenderer {
 }
 
 impl Renderer for GpuRenderer {
+    fn set_partial(&mut self, ranges: &[(RepId, Vec<std::ops::Range<u32>>)]) {
+        self.partial = ranges.iter().cloned().collect();
+    }
+
     fn begin_frame(&mut self, view: &View) {
         self.frame_no += 1;
         self.frame_draws.clear();

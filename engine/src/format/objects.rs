@@ -188,6 +188,17 @@ impl ObjectTable {
         std::str::from_utf8(&self.text[a as usize..b as usize]).ok()
     }
 
+    /// The runs of merged leaf `node` (empty for any other node).
+    pub fn runs_of(&self, node: u32) -> &[Run] {
+        match self.leaves.binary_search_by_key(&node, |l| l.node) {
+            Ok(i) => {
+                let l = self.leaves[i];
+                &self.runs[l.first_run as usize..(l.first_run + l.run_count) as usize]
+            }
+            Err(_) => &[],
+        }
+    }
+
     /// The object that triangle `tri` of leaf `node`'s finest static rep
     /// belongs to.
     pub fn object_at(&self, skeleton: &Skeleton, node: u32, tri: u32) -> Option<u32> {

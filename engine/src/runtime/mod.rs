@@ -278,6 +278,14 @@ impl Walkthrough {
         self.params.section = section;
     }
 
+    /// Hides elements from the next frame on: a node whose objects are all
+    /// hidden leaves P_R's front and every front P_I plans from (they share
+    /// the front index); see [`crate::hide`]. The renderer draws a merged
+    /// leaf in part from [`crate::hide::Hiding::triangle_ranges`].
+    pub fn set_hiding(&mut self, hiding: &crate::hide::Hiding) {
+        self.select.index().set_visibility(hiding.nodes());
+    }
+
     /// The view for a pose under these parameters.
     pub fn view(&self, pose: &Pose) -> View {
         self.params.view(pose)

@@ -1,5 +1,6 @@
-//! Section planes in the runtime: what a section removes leaves P_R's
-//! front and every front P_I plans from, so it is neither drawn nor read.
+//! Section planes and hidden elements in the runtime: what a section
+//! removes, or the user hides, leaves P_R's front and every front P_I plans
+//! from, so it is neither drawn nor read.
 
 use std::sync::{Arc, Mutex};
 
@@ -136,4 +137,53 @@ fn a_section_set_mid_walk_takes_effect_at_the_next_frame() {
     assert!(!drawn.is_empty());
     let bad: Vec<_> = drawn.iter().filter(|r| gone.contains(r)).collect();
     assert!(bad.is_empty(), "drawn after the section was set: {bad:?}");
+}
+
+#[test]
+fn hidden_elements_are_neither_drawn_nor_read() {
+    use crate::format::objects::ObjectTable;
+    use crate::hide::Hiding;
+    // The same row, its leaves naming objects 0..63; objects 33.. hidden.
+    let infos: Vec<String> = (0..64).map(|k| format!("{{\"name\":\"o{k}\"}}")).collect();
+    let (shape, kids) = super::tests::wide_shape(64);
+    let (bytes, _) =
+        crate::testutil::build_with(&shape, &kids, [0.0; 3], &ObjectTable::encode(&infos, &[]));
+    let file =
+        crate::format::SceneFile::from_source(crate::io::MemSource::new(bytes.clone())).unwrap();
+    let skel = Arc::new(file.skeleton().clone());
+    let table = file.read_objects().unwrap();
+    let hiding = Hiding::new(&skel, &table, |k| k >= 33);
+    let gone: Vec<RepId> = (0..skel.reps.len() as RepId)
+        .filter(|&r| {
+            let n = skel.reps[r as usize].node as usize;
+            hiding.nodes()[n] == crate::hide::NodeVis::Hidden
+        })
+        .collect();
+    assert!(gone.len() > skel.reps.len() / 3, "{} reps", gone.len());
+    for (mode, hide) in [(Mode::Pre, true), (Mode::NoPre, true), (Mode::Pre, false)] {
+        let logged = Arc::new(Logged {
+            inner: Arc::new(crate::io::MemSource::new(bytes.clone())),
+            reads: Mutex::new(Vec::new()),
+        });
+        let total: u64 = skel.reps.iter().map(|r| r.resident_len()).sum();
+        let p = RuntimeParams {
+            coalesce_max_gap: 0,
+            ..params(mode, total / 3)
+        };
+        let mut w = Walkthrough::start(skel.clone(), logged.clone(), p).unwrap();
+        let reads0 = logged.reads.lock().unwrap().len();
+        if hide {
+            w.set_hiding(&hiding);
+        }
+        let mut drawn = Drawn::default();
+        for ps in along() {
+            let f = w.frame(&ps, &mut drawn).unwrap();
+            check_frames(std::slice::from_ref(&f), total / 3);
+        }
+        drop(w);
+        let reads = logged.reads.lock().unwrap()[reads0..].to_vec();
+        let drew = drawn.0.iter().any(|r| gone.contains(r));
+        let read = !read_any(&skel, &gone, &reads).is_empty();
+        assert_eq!((drew, read), (!hide, !hide), "{mode:?}, hidden {hide}");
+    }
 }

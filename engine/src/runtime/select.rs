@@ -63,6 +63,11 @@ impl FrontSelect {
         }
     }
 
+    /// The front index (shared with P_I).
+    pub(super) fn index(&self) -> &FrontIndex {
+        &self.index
+    }
+
     /// The front at `tol`, occlusion-culled, into `out`.
     fn compute(&mut self, s: &Skeleton, view: &View, tol: f32, out: &mut Selected) -> FrontCost {
         out.front.clear();

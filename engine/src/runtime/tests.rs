@@ -35,7 +35,7 @@ pub(super) fn wide_compressed(n: u32) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
     scene_of(build_compressed(&reps, &children).0)
 }
 
-fn wide_shape(n: u32) -> (Vec<u32>, Vec<u32>) {
+pub(super) fn wide_shape(n: u32) -> (Vec<u32>, Vec<u32>) {
     let groups = n / 4;
     let mut reps = vec![1];
     let mut children = vec![groups];

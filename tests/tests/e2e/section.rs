@@ -101,15 +101,16 @@ fn a_section_cuts_away_what_it_removes_and_caps_the_cut() {
     // Beside the cubes nothing changed.
     assert_eq!(cut.pixel(4, 4), whole.pixel(4, 4));
 
-    // Cut at z = -2: the grey cube is wholly removed, it leaves the front,
-    // and the green cube behind it shows, uncut.
+    // Cut at z = -2: the grey cube is cut away whole and the green cube
+    // behind it shows, uncut (the two share one merged leaf, whose rep the
+    // shader clips).
     walk.set_section(Section::from_planes(&[(Vec3::new(0.0, 0.0, -2.0), Vec3::Z)]).unwrap());
     r.capture_next_frame();
     let f = walk.frame(&eye, &mut r).unwrap();
     let behind = r.take_capture().unwrap();
     let g = behind.pixel(cx, cy);
     assert!(g[1] > 100 && g[0] < 40 && g[2] < 40, "green cube {g:?}");
-    assert_eq!(f.front_reps, 1, "only the green cube's rep: {f:?}");
+    assert_eq!(f.front_reps, 1, "the merged leaf's rep, clipped: {f:?}");
 
     // A section box that holds nothing: an empty image.
     walk.set_section(Section::boxed(Vec3::splat(50.0), Vec3::splat(60.0)).unwrap());
@@ -118,5 +119,52 @@ fn a_section_cuts_away_what_it_removes_and_caps_the_cut() {
     let empty = r.take_capture().unwrap();
     assert_eq!(f.front_reps, 0);
     assert_eq!(empty.pixel(cx, cy), whole.pixel(4, 4));
+    assert!(r.context().take_errors().is_empty());
+}
+
+#[test]
+fn a_hidden_element_of_a_merged_leaf_is_not_drawn() {
+    use engine::hide::{Hiding, NodeVis};
+    use engine::render::Renderer;
+    // The same two cubes: small enough to share one merged leaf.
+    let (_model, _d, path) = scene(&[
+        cube(Vec3::ZERO, 1.0, [200, 200, 200, 255]),
+        cube(Vec3::new(0.0, 0.0, -6.0), 1.0, [0, 220, 0, 255]),
+    ]);
+    let file = engine::SceneFile::open(&path).unwrap();
+    let table = file.read_objects().unwrap();
+    let grey = (0..table.len() as u32)
+        .find(|&k| table.info(k).unwrap().contains("object 0"))
+        .unwrap();
+    let (skel, source, data) = load(&path);
+    let hiding = Hiding::new(&skel, &table, |k| k == grey);
+    let leaves = skel.nodes.iter().filter(|n| n.child_count == 0).count();
+    let test = "a_hidden_element_of_a_merged_leaf_is_not_drawn";
+    let Some(mut r) = renderer(test, data, Colouring::Object) else {
+        return;
+    };
+    let mut walk = Walkthrough::start(skel.clone(), source, params(Mode::Incore, 0, 0.5)).unwrap();
+    let eye = Pose::look_at(Vec3::new(0.0, 0.0, 6.0), Vec3::ZERO, 50.0);
+    let (cx, cy) = (super::render::W / 2, super::render::H / 2);
+    let before = shot(&mut walk, &mut r, &eye).pixel(cx, cy);
+    assert!(
+        before[0] > 150 && before[0] == before[1],
+        "grey cube {before:?}"
+    );
+    walk.set_hiding(&hiding);
+    r.set_partial(hiding.triangle_ranges());
+    let after = shot(&mut walk, &mut r, &eye).pixel(cx, cy);
+    assert!(
+        after[1] > 100 && after[0] < 40,
+        "the green cube behind {after:?}"
+    );
+    // One merged leaf, drawn in part from its finest rep.
+    assert_eq!(leaves, 1);
+    assert_eq!(hiding.nodes()[0], NodeVis::Mixed);
+    assert_eq!(hiding.triangle_ranges().len(), 1);
+    // Shown again.
+    walk.set_hiding(&Hiding::none(skel.nodes.len()));
+    r.set_partial(&[]);
+    assert_eq!(shot(&mut walk, &mut r, &eye).pixel(cx, cy), before);
     assert!(r.context().take_errors().is_empty());
 }

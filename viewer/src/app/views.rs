@@ -165,38 +165,101 @@ impl App {
         self.settings = sess.settings;
         self.controls.set_pose(&v.pose);
         self.play = None;
-        let hidden = if v.default_visible {
-            v.exceptions.len()
-        } else {
-            0
-        };
         println!(
             "{}: camera and {} clipping plane(s) applied; {} component(s) selected",
             path.display(),
             v.section.planes().len(),
             v.selected.len()
         );
-        if hidden > 0 || !v.default_visible {
-            tracing::warn!(
-                "{}: hiding components is not supported yet: every component stays visible",
-                path.display()
-            );
+        if !v.default_visible || !v.exceptions.is_empty() {
+            let shown = |id: &Option<String>| {
+                let listed = id.as_ref().is_some_and(|g| v.exceptions.contains(g));
+                listed != v.default_visible
+            };
+            let done = sess.picker().map(|p| {
+                let ids: Vec<Option<String>> = (0..p.objects().len() as u32)
+                    .map(|k| p.global_id(k))
+                    .collect();
+                let found = v
+                    .exceptions
+                    .iter()
+                    .filter(|g| ids.iter().any(|i| i.as_ref() == Some(g)))
+                    .count();
+                (ids.iter().map(|i| !shown(i)).collect::<Vec<bool>>(), found)
+            });
+            match done.and_then(|(hidden, found)| Ok((sess.set_hidden(hidden)?, found))) {
+                Ok((n, found)) => println!(
+                    "{}: {n} element(s) hidden ({} of its {} listed component(s) found in the scene)",
+                    path.display(),
+                    found,
+                    v.exceptions.len()
+                ),
+                Err(e) => self.report(format!("--viewpoint {}: {e:#}", path.display())),
+            }
         }
+    }
+
+    /// `H` hides the selected element, `I` isolates it (hides every other
+    /// one), `U` shows everything again.
+    pub(super) fn hide_key(&mut self, key: char) {
+        let Some(sess) = &mut self.session else {
+            return;
+        };
+        let selected = self.selection.as_ref().and_then(|s| s.object);
+        let count = sess.picker().map(|p| p.objects().len()).unwrap_or(0);
+        let mut hidden = sess.hidden().to_vec();
+        hidden.resize(count, false);
+        match (key, selected) {
+            ('u', _) => hidden.clear(),
+            ('h', Some(k)) => hidden[k as usize] = true,
+            ('i', Some(k)) => hidden
+                .iter_mut()
+                .enumerate()
+                .for_each(|(i, h)| *h = i != k as usize),
+            _ => {
+                self.report("H hides and I isolates the selected element: select one first".into());
+                return;
+            }
+        }
+        match sess.set_hidden(hidden) {
+            Ok(n) => {
+                println!("{n} element(s) hidden");
+                if key == 'h' {
+                    self.selection = None;
+                }
+            }
+            Err(e) => self.report(format!("hide: {e:#}")),
+        }
+        self.ui_dirty = true;
     }
 
     /// The view as a BCF viewpoint, written to `to` (or to the next
     /// `hlod-view-N.bcfv`).
     pub(super) fn save_viewpoint(&mut self, to: Option<PathBuf>) -> Result<()> {
-        let Some(sess) = &self.session else {
+        let Some(sess) = &mut self.session else {
             anyhow::bail!("no scene is open");
         };
         let to = to.unwrap_or_else(|| PathBuf::from(format!("hlod-view-{:06}.bcfv", self.frames)));
+        // Hidden elements: listed as exceptions to a visible default, or
+        // the shown ones to a hidden default when most are hidden.
+        let hidden = sess.hidden().to_vec();
+        let n_hidden = hidden.iter().filter(|h| **h).count();
+        let default_visible = 2 * n_hidden <= hidden.len();
+        let exceptions = if n_hidden == 0 {
+            Vec::new()
+        } else {
+            let p = sess.picker()?;
+            (0..hidden.len() as u32)
+                .filter(|&k| hidden[k as usize] == default_visible)
+                .filter_map(|k| p.global_id(k))
+                .collect()
+        };
         let v = Viewpoint {
             pose: self.frozen.unwrap_or_else(|| self.controls.pose()),
             section: sess.settings.params.section,
             selected: self.selection.iter().filter_map(global_id_of).collect(),
-            default_visible: true,
-            exceptions: Vec::new(),
+            default_visible,
+            exceptions,
         };
         engine::outfile::write_bytes(&to, v.to_xml(sess.origin).as_bytes())
             .with_context(|| format!("cannot write {}", to.display()))?;

@@ -1,0 +1,78 @@
+use super::*;
+use crate::format::SceneFile;
+use crate::format::objects::Run;
+use crate::io::MemSource;
+use crate::testutil::build_with;
+
+/// A root over two groups of two leaves (nodes 3–6); leaf `k` names
+/// object `k` unless it is merged (then `runs` describe it).
+fn scene(merged: &[(u32, Vec<Run>)], objects: usize) -> (Skeleton, ObjectTable) {
+    let infos: Vec<String> = (0..objects)
+        .map(|k| format!("{{\"name\":\"o{k}\"}}"))
+        .collect();
+    let (bytes, _) = build_with(
+        &[1, 1, 1, 2, 2, 2, 2],
+        &[2, 2, 2, 0, 0, 0, 0],
+        [0.0; 3],
+        &ObjectTable::encode(&infos, &[]),
+    );
+    let file = SceneFile::from_source(MemSource::new(bytes)).unwrap();
+    let mut s = file.skeleton().clone();
+    for (node, _) in merged {
+        s.nodes[*node as usize].object = NONE;
+    }
+    let table = ObjectTable::decode(&ObjectTable::encode(&infos, merged), &s).unwrap();
+    (s, table)
+}
+
+#[test]
+fn hidden_leaves_leave_and_their_ancestors_go_mixed() {
+    let (s, t) = scene(&[], 4);
+    // Objects follow the leaves: leaf node 3 + k names object k.
+    let obj = |n: usize| s.nodes[n].object;
+    assert_eq!((obj(3), obj(6)), (0, 3));
+    let h = Hiding::new(&s, &t, |k| k == obj(3));
+    use NodeVis::*;
+    assert_eq!(
+        h.nodes(),
+        [Mixed, Mixed, Shown, Hidden, Shown, Shown, Shown]
+    );
+    assert_eq!(h.hidden_objects(), 1);
+    // A whole group hidden: the group leaves too.
+    let h = Hiding::new(&s, &t, |k| k == obj(3) || k == obj(4));
+    assert_eq!(h.nodes()[1], Hidden);
+    assert_eq!(h.nodes()[0], Mixed);
+    // Everything hidden; nothing hidden.
+    assert!(
+        Hiding::new(&s, &t, |_| true)
+            .nodes()
+            .iter()
+            .all(|v| *v == Hidden)
+    );
+    assert_eq!(Hiding::new(&s, &t, |_| false), Hiding::none(7));
+}
+
+#[test]
+fn a_merged_leaf_in_part_hidden_draws_the_shown_runs_of_its_finest_rep() {
+    // Leaf 3 merges objects 0, 1, 0 (triangles 0..1, 1..2 of its quad).
+    let runs = vec![
+        Run {
+            object: 0,
+            tri_end: 1,
+        },
+        Run {
+            object: 1,
+            tri_end: 2,
+        },
+    ];
+    let (s, t) = scene(&[(3, runs)], 4);
+    let h = Hiding::new(&s, &t, |k| k == 1);
+    assert_eq!(h.nodes()[3], NodeVis::Mixed);
+    let finest = s.nodes[3].first_rep + s.nodes[3].rep_count - 1;
+    let shown: Vec<std::ops::Range<u32>> = std::iter::once(0..1).collect();
+    assert_eq!(h.triangle_ranges(), [(finest, shown)]);
+    // Both of its objects hidden: the leaf leaves.
+    let h = Hiding::new(&s, &t, |k| k <= 1);
+    assert_eq!(h.nodes()[3], NodeVis::Hidden);
+    assert!(h.triangle_ranges().is_empty());
+}
