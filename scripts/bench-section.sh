@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
-# What a section saves (issue 48, item 2; not in CI): walks the 10x10 tilings of the
-# Schependomlaan and the Duplex on the interior and fly-through paths (two seeds each) in-core
-# and out-of-core with prefetching, without a section and with a section box that keeps the
-# ground storey (from below the foundations up to TOP metres, the whole plan), and tabulates
+# What a section or hidden elements save (issue 48, items 2 and 3; not in CI): walks the 10x10
+# tilings of the Schependomlaan and the Duplex on the interior and fly-through paths (two seeds
+# each) in-core and out-of-core with prefetching, without a section and with a section box that
+# keeps the ground storey (from below the foundations up to TOP metres, the whole plan), or with
+# the elements whose description holds a text hidden (VARIANTS="none hide:IfcSlab"), and tabulates
 # each run's front (median and largest, the footprint the view needs), frame times, Stage II
 # bytes and substituted frames. Same path, same ε (2 px), same footprint (5%, `ssd`), `none`
 # renderer. The scenes are built as scripts/anatomy.sh builds them (in out/scenes/).
 # Table: out/section/summary.md. About 15 minutes on 2 cores.
-# Usage: scripts/bench-section.sh [TOP] [SEEDS] [FRAMES] [BUDGET]   (defaults: 2.5 1,2 600 5%)
+# Usage: [VARIANTS="none storey hide:TEXT …"] scripts/bench-section.sh [TOP] [SEEDS] [FRAMES] [BUDGET]
+#   (defaults: VARIANTS="none storey", 2.5 1,2 600 5%; tables to out/section/summary.md, or
+#   summary-hide.md when a variant hides)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 top="${1:-2.5}"
@@ -39,9 +42,11 @@ sum() { # file column scale
   awk -F, -v col="$2" -v s="$3" 'NR == 1 { for (i = 1; i <= NF; i++) if ($i == col) c = i; next }
     { t += $c; n += ($c > 0) } END { printf "%.2f %d\n", t / s, n }' "$1"
 }
+variants="${VARIANTS:-none storey}"
 summary="$out/summary.md"
+case "$variants" in *hide:*) summary="$out/summary-hide.md" ;; esac
 {
-  echo "| scene | path | seed | section | front MiB median / max | front tris median | in-core ms median / p99 | pre ms median / p99 | Stage II MiB | frames substituted |"
+  echo "| scene | path | seed | section or hidden | front MiB median / max | front tris median | in-core ms median / p99 | pre ms median / p99 | Stage II MiB | frames substituted |"
   echo "|---|---|---:|---|---:|---:|---:|---:|---:|---:|"
 } > "$summary"
 IFS=, read -ra seed_list <<< "$seeds"
@@ -52,10 +57,14 @@ for scene in schep10 duplex10; do
     'BEGIN { printf "%g,%g,%g,%g,%g,%g", a - 1, b - 1, c - 1, d + 1, t, f + 1 }')"
   for kind in interior flythrough; do
     for seed in "${seed_list[@]}"; do
-      for cut in none storey; do
-        o="$out/$scene-$kind-s$seed-$cut"
+      for cut in $variants; do
+        o="$out/$scene-$kind-s$seed-${cut/:/-}"
         args=()
-        [ "$cut" = storey ] && args=(--section-box "$box")
+        label="$cut"
+        case "$cut" in
+          storey) args=(--section-box "$box") label="box y ≤ $top m" ;;
+          hide:*) args=(--hide "${cut#hide:}") label="${cut#hide:} hidden" ;;
+        esac
         $B/hlod-bench "$dir/$scene.hlod" --path-kind "$kind" --seed "$seed" --frames "$frames" \
           --modes incore,pre --budget "$budget" --disk ssd "${args[@]}" --out "$o" > "$o.log" 2>&1
         read -r fm _ fx < <(stats "$o/pre.csv" front_bytes 1048576)
@@ -64,8 +73,6 @@ for scene in schep10 duplex10; do
         read -r pm pp _ < <(stats "$o/pre.csv" frame_ms 1)
         read -r s2 _ < <(sum "$o/pre.csv" stage2_bytes 1048576)
         read -r _ subs < <(sum "$o/pre.csv" substituted 1)
-        label="$cut"
-        [ "$cut" = storey ] && label="box y ≤ $top m"
         echo "| $scene | $kind | $seed | $label | $fm / $fx | ${ft%.*} | $im / $ip | $pm / $pp | $s2 | $subs |" >> "$summary"
       done
     done

@@ -159,6 +159,11 @@ pub struct Args {
     /// A section box X0,Y0,Z0,X1,Y1,Z1: only what lies inside it stays.
     #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
     pub section_box: Option<String>,
+    /// Hide every element whose description (name, mesh name, `extras`:
+    /// IFC type, GlobalId) contains this text (repeatable): hidden
+    /// elements leave the front and are not fetched.
+    #[arg(long, value_name = "TEXT")]
+    pub hide: Vec<String>,
     /// The quality governor: raise ε for the whole frame when the front
     /// does not fit the footprint (or --max-tris), instead of substituting.
     #[arg(long)]

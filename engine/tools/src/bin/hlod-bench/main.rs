@@ -91,6 +91,18 @@ fn run(a: Args) -> Result<()> {
         SceneHandle::open_cached(&a.scene, cache.as_ref()).with_context(|| scene_name.clone())?;
     let scene = SceneFile::from_source(handle.raw()?).with_context(|| scene_name.clone())?;
     let skel = Arc::new(scene.skeleton().clone());
+    let hiding = if a.hide.is_empty() {
+        None
+    } else {
+        let table = scene.read_objects().with_context(|| scene_name.clone())?;
+        let h = engine::hide::Hiding::new(&skel, &table, |k| {
+            table
+                .info(k)
+                .is_some_and(|t| a.hide.iter().any(|x| t.contains(x.as_str())))
+        });
+        println!("--hide: {} of {} elements hidden", h.hidden_objects(), table.len());
+        Some(h)
+    };
     let interior = if a.path.is_none() && a.path_kind == "interior" {
         // Openings' voids, spaces and doors are walked through.
         let (tris, passable) =
@@ -320,6 +332,9 @@ fn run(a: Args) -> Result<()> {
         let t0 = std::time::Instant::now();
         let mut walk = Walkthrough::start(skel.clone(), source, params)
             .with_context(|| format!("starting mode {}", mode.name()))?;
+        if let Some(h) = &hiding {
+            walk.set_hiding(h);
+        }
         let mut gpu_r = match &gpu {
             Some(ctx) => {
                 let mut r = GpuRenderer::new(
@@ -338,6 +353,9 @@ fn run(a: Args) -> Result<()> {
                     },
                 )?;
                 r.capture_every(a.psnr_every);
+                if let Some(h) = &hiding {
+                    engine::render::Renderer::set_partial(&mut r, h.triangle_ranges());
+                }
                 Some(r)
             }
             None => None,
