@@ -100,7 +100,11 @@ fn run(a: Args) -> Result<()> {
                 .info(k)
                 .is_some_and(|t| a.hide.iter().any(|x| t.contains(x.as_str())))
         });
-        println!("--hide: {} of {} elements hidden", h.hidden_objects(), table.len());
+        println!(
+            "--hide: {} of {} elements hidden",
+            h.hidden_objects(),
+            table.len()
+        );
         Some(h)
     };
     let interior = if a.path.is_none() && a.path_kind == "interior" {
