@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, Result, anyhow};
-use engine::camera::{Pose, format_path, read_path};
+use engine::camera::{Pose, read_path};
 use engine::disk::DiskModel;
 use engine::metrics::CsvStream;
 use engine::runtime::{Mode, RuntimeParams};
@@ -143,6 +143,7 @@ impl App {
                     .as_ref()
                     .map(|p| p.display().to_string())
                     .unwrap_or_default(),
+                find_text: args.find.clone().unwrap_or_default(),
                 frozen: false,
                 panel_frac: 0.0,
             },
@@ -256,7 +257,7 @@ impl App {
                 self.session = Some(sess);
                 self.error = None;
                 self.open_failed = None;
-                self.apply_viewpoint();
+                self.after_open();
                 if let Some(need) = need.filter(|_| self.args.exit_when_complete) {
                     // Waiting for a complete view would never end.
                     let msg = format!(
@@ -330,25 +331,6 @@ impl App {
 
     fn next_shot_name(&self) -> PathBuf {
         PathBuf::from(format!("hlod-view-{:06}.png", self.frames))
-    }
-
-    fn toggle_record(&mut self) {
-        match self.recording.take() {
-            None => self.recording = Some(Vec::new()),
-            Some(poses) => self.save_recording(&poses),
-        }
-    }
-
-    fn save_recording(&mut self, poses: &[Pose]) {
-        let to = self
-            .args
-            .record
-            .clone()
-            .unwrap_or_else(|| PathBuf::from("hlod-view-path.txt"));
-        match engine::outfile::write_bytes(&to, format_path(poses).as_bytes()) {
-            Ok(()) => tracing::info!("recorded {} poses to {}", poses.len(), to.display()),
-            Err(e) => self.report(format!("cannot write {}: {e}", to.display())),
-        }
     }
 
     fn redraw(&mut self, event_loop: &ActiveEventLoop) {
@@ -551,6 +533,9 @@ impl App {
         }
         if a.frame_all {
             self.frame_all();
+        }
+        if let Some(t) = a.find {
+            self.find(&t);
         }
     }
 

@@ -123,6 +123,11 @@ pub struct Args {
     /// printed in metres and drawn.
     #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_two_pixels)]
     pub measure: Option<[f32; 4]>,
+    /// Find the elements whose name, mesh name or `extras` (IFC type,
+    /// GlobalId) hold this text once the scene opens, select the first and
+    /// fly to it (the overlay's Find does the same).
+    #[arg(long, value_name = "TEXT")]
+    pub find: Option<String>,
     /// Save the last frame (with the overlay) as PNG at exit.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,

@@ -77,14 +77,21 @@ impl Picker {
         let Some(hit) = engine::pick::pick_cut(&self.scene, &self.objects, o, d, cut)? else {
             return Ok(None);
         };
-        let world = |p: Vec3| -> [f64; 3] {
-            let p = p.as_dvec3();
-            [p.x + origin[0], p.y + origin[1], p.z + origin[2]]
-        };
-        let n = &self.scene.skeleton().nodes[hit.node as usize];
+        let sel = self.selection(hit.object, hit.node, origin);
+        Ok(Some(Selection {
+            point: world_of(hit.point, origin),
+            scene_point: hit.point,
+            corners: hit.corners,
+            ..sel
+        }))
+    }
+
+    /// Object `object` (found at leaf `node`) as a selection, its box from
+    /// its description (else the node's), its point the box's centre.
+    fn selection(&self, object: Option<u32>, node: u32, origin: [f64; 3]) -> Selection {
+        let n = &self.scene.skeleton().nodes[node as usize];
         let (mut smin, mut smax) = (Vec3::from(n.bbox_min), Vec3::from(n.bbox_max));
-        let info: Option<Value> = hit
-            .object
+        let info: Option<Value> = object
             .and_then(|k| self.objects.info(k))
             .and_then(|t| serde_json::from_str(t).ok());
         let field = |k: &str| info.as_ref().and_then(|v| v.get(k));
@@ -108,18 +115,19 @@ impl Picker {
                 (smin, smax) = (s(a), s(b));
                 (a, b)
             }
-            _ => (world(smin), world(smax)),
+            _ => (world_of(smin, origin), world_of(smax, origin)),
         };
         let name = field("name")
             .and_then(Value::as_str)
             .map(str::to_string)
-            .unwrap_or_else(|| match hit.object {
+            .unwrap_or_else(|| match object {
                 Some(k) => format!("object {k}"),
-                None => format!("leaf node {}", hit.node),
+                None => format!("leaf node {node}"),
             });
-        Ok(Some(Selection {
-            object: hit.object,
-            node: hit.node,
+        let centre = (smin + smax) * 0.5;
+        Selection {
+            object,
+            node,
             name,
             mesh_name: field("mesh_name")
                 .and_then(Value::as_str)
@@ -129,11 +137,58 @@ impl Picker {
             world_max: wmax,
             scene_min: smin,
             scene_max: smax,
-            point: world(hit.point),
-            scene_point: hit.point,
-            corners: hit.corners,
-        }))
+            point: world_of(centre, origin),
+            scene_point: centre,
+            corners: [centre; 3],
+        }
     }
+
+    /// The elements whose name, mesh name, `extras` (IFC type, GlobalId)
+    /// contain `text` (ignoring case), in object order, as selections.
+    pub fn find(&self, text: &str, origin: [f64; 3]) -> Vec<Selection> {
+        let needle = text.trim().to_lowercase();
+        if needle.is_empty() {
+            return Vec::new();
+        }
+        let s = self.scene.skeleton();
+        // The first leaf of each object (a one-object leaf or chunk, else
+        // a merged leaf that holds it).
+        let mut leaf = vec![u32::MAX; self.objects.len()];
+        for (i, n) in s.nodes.iter().enumerate() {
+            if n.child_count > 0 {
+                continue;
+            }
+            let objs: Vec<u32> = if n.object != engine::format::NONE {
+                vec![n.object]
+            } else {
+                self.objects
+                    .runs_of(i as u32)
+                    .iter()
+                    .map(|r| r.object)
+                    .collect()
+            };
+            for k in objs {
+                if let Some(l) = leaf.get_mut(k as usize).filter(|l| **l == u32::MAX) {
+                    *l = i as u32;
+                }
+            }
+        }
+        (0..self.objects.len() as u32)
+            .filter(|&k| leaf[k as usize] != u32::MAX)
+            .filter(|&k| {
+                self.objects
+                    .info(k)
+                    .is_some_and(|t| t.to_lowercase().contains(&needle))
+            })
+            .map(|k| self.selection(Some(k), leaf[k as usize], origin))
+            .collect()
+    }
+}
+
+/// A scene point in world coordinates.
+fn world_of(p: Vec3, origin: [f64; 3]) -> [f64; 3] {
+    let p = p.as_dvec3();
+    [p.x + origin[0], p.y + origin[1], p.z + origin[2]]
 }
 
 /// The twelve edges of a box as pixel segments of the view from `pose`

@@ -26,6 +26,7 @@ pub struct Sample {
 pub struct UiState {
     pub open_text: String,
     pub path_text: String,
+    pub find_text: String,
     pub frozen: bool,
     /// The fraction of the window's width, from the left, that the main
     /// panel covers (as last drawn): framing keeps the model clear of it.
@@ -42,6 +43,8 @@ pub struct Actions {
     pub screenshot: bool,
     pub frame_all: bool,
     pub clear_selection: bool,
+    /// Find an element by name or GlobalId and fly to it.
+    pub find: Option<String>,
 }
 
 /// A measurement in the view: its ends in pixels and its label.
@@ -224,10 +227,17 @@ pub fn draw(
             ));
             let planes = v.settings.map_or(0, |s| s.params.section.planes().len());
             ui.label(match planes {
-                0 => "no section (C cuts at eye height, B boxes the selection; V saves a BCF \
-                      viewpoint, M measures)"
+                0 => "no section (C cuts at eye height, B boxes the selection; H hides, I \
+                      isolates, U shows all; V saves a BCF viewpoint, M measures)"
                     .to_string(),
                 n => format!("section: {n} plane(s) cut the model ([ ] move them; C or B: off)"),
+            });
+            ui.horizontal(|ui| {
+                let edit = ui.text_edit_singleline(&mut st.find_text);
+                let entered = edit.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
+                if ui.button("Find").clicked() || entered {
+                    act.find = Some(st.find_text.clone());
+                }
             });
             ui.horizontal(|ui| {
                 if ui.button("Frame all (Home)").clicked() {

@@ -392,3 +392,57 @@ fn a_viewpoint_hides_its_components_and_the_view_saved_lists_them() {
     assert!(tops[2].0 as f64 > tops[0].0 as f64 * 0.9, "{tops:?}");
     assert!(tops[2].1 < tops[0].1 * 0.8, "{tops:?}");
 }
+
+#[test]
+fn finds_an_element_by_global_id_and_flies_to_it() {
+    if !can_run("finds_an_element_by_global_id_and_flies_to_it") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = d.join("haus.hlod");
+    hlod_builder::build::build_file(&fzk_haus(), &scene, &Default::default(), false).unwrap();
+    let run = |find: &str, shot: &str| {
+        let out = view(
+            d,
+            &[
+                scene.to_str().unwrap(),
+                "--find",
+                find,
+                "--exit-when-complete",
+                "--screenshot",
+                shot,
+                "--width",
+                "800",
+                "--height",
+                "450",
+            ],
+        );
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    // The front door, by its GlobalId (any case).
+    let (ok, so, se) = run("2jtrqchjf7ob0", "door.png");
+    assert!(ok, "{se}");
+    let line = so
+        .lines()
+        .find(|l| l.starts_with("find "))
+        .unwrap_or_else(|| panic!("{so}"));
+    assert!(
+        line.contains("1 element(s); selected IfcDoor:Haustuer"),
+        "{line}"
+    );
+    std::fs::copy(d.join("door.png"), artefacts().join("viewer-find-door.png")).unwrap();
+    // Framed beside the panel: the door fills much of the view.
+    let img = RgbaImage::load_png(&d.join("door.png")).unwrap();
+    assert!(scene_coverage(&img) > 0.3, "{}", scene_coverage(&img));
+    // By type: every window; nothing for a text no element holds.
+    let (ok, so, _) = run("IfcWindow", "windows.png");
+    assert!(ok && so.contains("selected IfcWindow:"), "{so}");
+    // An error a script sees: said, and the exit status is not 0.
+    let (ok, _, se) = run("no such element", "none.png");
+    assert!(!ok && se.contains("no element matches"), "{se}");
+}

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use engine::camera::Pose;
+use engine::camera::{Pose, format_path};
 use engine::metrics::CsvStream;
 
 use super::App;
@@ -80,6 +80,25 @@ impl Shots {
 }
 
 impl App {
+    pub(super) fn toggle_record(&mut self) {
+        match self.recording.take() {
+            None => self.recording = Some(Vec::new()),
+            Some(poses) => self.save_recording(&poses),
+        }
+    }
+
+    pub(super) fn save_recording(&mut self, poses: &[Pose]) {
+        let to = self
+            .args
+            .record
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("hlod-view-path.txt"));
+        match engine::outfile::write_bytes(&to, format_path(poses).as_bytes()) {
+            Ok(()) => tracing::info!("recorded {} poses to {}", poses.len(), to.display()),
+            Err(e) => self.report(format!("cannot write {}: {e}", to.display())),
+        }
+    }
+
     /// Tracks completeness, the first complete frame and `--pick`.
     pub(super) fn after_frame(&mut self, m: &engine::metrics::FrameMetrics, pose: &Pose) {
         let loading = m.loader.late_reps + m.vdt_misses;

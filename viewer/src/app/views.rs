@@ -31,6 +31,52 @@ pub(super) struct Measuring {
 }
 
 impl App {
+    /// What follows a scene's opening: `--viewpoint`, then `--find`.
+    pub(super) fn after_open(&mut self) {
+        self.apply_viewpoint();
+        if let Some(t) = self.args.find.clone() {
+            self.find(&t);
+        }
+    }
+
+    /// Finds the elements whose name, mesh name or `extras` (IFC type,
+    /// GlobalId) hold `text`, selects the first and flies to it (frames
+    /// its box beside the panel).
+    pub(super) fn find(&mut self, text: &str) {
+        let Some(sess) = &mut self.session else {
+            return;
+        };
+        let origin = sess.origin;
+        let found = match sess.picker() {
+            Ok(p) => p.find(text, origin),
+            Err(e) => {
+                self.report(format!("find: {e:#}"));
+                return;
+            }
+        };
+        let Some(first) = found.first().cloned() else {
+            self.report(format!("find {text:?}: no element matches"));
+            return;
+        };
+        let c = *sess.renderer.config();
+        let aspect = c.width as f32 / c.height.max(1) as f32;
+        let pad = (first.scene_max - first.scene_min).max_element().max(0.5) * 0.5;
+        self.controls.frame_all_beside(
+            first.scene_min - pad,
+            first.scene_max + pad,
+            aspect,
+            self.ui.panel_frac,
+        );
+        println!(
+            "find {text:?}: {} element(s); selected {} and flew to it",
+            found.len(),
+            first.name
+        );
+        self.selection = Some(first);
+        self.play = None;
+        self.ui_dirty = true;
+    }
+
     /// `M`: clicks measure instead of selecting (and back).
     pub(super) fn toggle_measuring(&mut self) {
         let m = &mut self.measuring;
