@@ -315,9 +315,14 @@ fn a_viewpoint_hides_its_components_and_the_view_saved_lists_them() {
         )
     };
     let plain = "<Components><Visibility DefaultVisibility=\"true\"/></Components>";
+    // The front door selected.
+    let door = "2jTRqchjf7oB0yhQ6462T0";
+    let selected = format!(
+        "<Components><Selection><Component IfcGuid=\"{door}\"/></Selection><Visibility DefaultVisibility=\"true\"/></Components>"
+    );
     let mut tops = Vec::new();
     for (name, comps) in [
-        ("all", plain.to_string()),
+        ("all", selected),
         ("roofless", components(true, &roofs)),
         ("roof-only", components(false, &roofs)),
     ] {
@@ -356,7 +361,12 @@ fn a_viewpoint_hides_its_components_and_the_view_saved_lists_them() {
         .unwrap();
         let xml = std::fs::read_to_string(d.join(&saved)).unwrap();
         match name {
-            "all" => assert!(!so.contains("hidden"), "{so}"),
+            "all" => {
+                assert!(!so.contains("hidden"), "{so}");
+                assert!(so.contains("selected IfcDoor:Haustuer"), "{so}");
+                let sel = xml.split("<Selection>").nth(1).unwrap_or_default();
+                assert!(sel.contains(door), "saved with the door selected: {xml}");
+            }
             "roofless" => {
                 assert!(
                     so.contains("2 element(s) hidden (2 of its 2 listed"),

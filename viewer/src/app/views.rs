@@ -217,6 +217,26 @@ impl App {
             v.section.planes().len(),
             v.selected.len()
         );
+        // The first selected component, selected (the camera stays).
+        if let Some(id) = v.selected.first() {
+            let origin = sess.origin;
+            let found = sess.picker().map(|p| {
+                p.find(id, origin)
+                    .into_iter()
+                    .find(|s| global_id_of(s).as_deref() == Some(id.as_str()))
+            });
+            match found {
+                Ok(Some(sel)) => {
+                    println!("{}: selected {}", path.display(), sel.name);
+                    self.selection = Some(sel);
+                }
+                Ok(None) => tracing::warn!(
+                    "{}: the selected component {id} is not in the scene",
+                    path.display()
+                ),
+                Err(e) => tracing::warn!("{}: {e:#}", path.display()),
+            }
+        }
         if !v.default_visible || !v.exceptions.is_empty() {
             let shown = |id: &Option<String>| {
                 let listed = id.as_ref().is_some_and(|g| v.exceptions.contains(g));
