@@ -167,3 +167,31 @@ pub fn mkfifo(path: &std::path::Path) {
         .is_ok_and(|s| s.success());
     assert!(ok, "mkfifo {}", path.display());
 }
+
+/// A closed box `[-h, h]³` around `centre`, of one colour: faces wound
+/// counter-clockwise seen from outside, normals outwards (the GPU tests'
+/// solid to cut, hide and measure).
+pub fn cube(centre: glam::Vec3, h: f32, color: [u8; 4]) -> hlod_builder::mesh::Mesh {
+    let mut m = hlod_builder::mesh::Mesh::default();
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = glam::Vec3::ZERO;
+            n[axis] = sign;
+            // Two axes spanning the face, u × v = n.
+            let (mut u, mut v) = n.any_orthonormal_pair();
+            if u.cross(v).dot(n) < 0.0 {
+                std::mem::swap(&mut u, &mut v);
+            }
+            let base = m.positions.len() as u32;
+            for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                m.positions
+                    .push((centre + (n + u * su + v * sv) * h).to_array());
+                m.normals.push(n.to_array());
+                m.colors.push(color);
+            }
+            m.indices
+                .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    m
+}

@@ -63,7 +63,7 @@ fn initial_settings(a: &Args) -> Result<Settings> {
         height_px: a.height,
         stall_deadline_s: a.stall_deadline / 1e3,
         fade_s: a.fade,
-        section: engine_cli::parse_section(&a.section, a.section_box.as_deref())?,
+        section: a.cut.section()?,
         ..RuntimeParams::default()
     };
     params.check()?;
@@ -360,7 +360,6 @@ impl App {
         } else if !self.ui.frozen {
             self.frozen = None;
         }
-        let marks = (self.highlight_edges(&pose), self.measure_mark(&pose));
         let Some(gfx) = &mut self.gfx else { return };
         let Some(frame) = gfx.acquire() else { return };
         let mut metrics = None;
@@ -414,6 +413,12 @@ impl App {
             };
             self.ui_due = now + engine::limits::duration_s(1.0 / hz.min(1000.0));
             let raw = gfx.egui_state.take_egui_input(&gfx.window);
+            let marks = views::overlay_marks(
+                self.selection.as_ref(),
+                self.session.as_ref(),
+                &self.measuring,
+                &pose,
+            );
             let view = ui::View {
                 scene: self.session.as_ref().and_then(|s| s.path.to_str()),
                 building: self.building.as_ref().map(Building::status),

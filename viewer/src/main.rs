@@ -100,15 +100,8 @@ pub struct Args {
     /// left click would: the element there is selected and printed.
     #[arg(long, value_parser = parse_pixel)]
     pub pick: Option<(f32, f32)>,
-    /// A section plane X,Y,Z,DX,DY,DZ (repeatable; scene coordinates, as
-    /// in camera paths): what lies on the side the direction points to is
-    /// cut away, leaves the front and is not fetched (key C: a horizontal
-    /// cut at the eye's height, and back).
-    #[arg(long, value_name = "X,Y,Z,DX,DY,DZ", allow_hyphen_values = true)]
-    pub section: Vec<String>,
-    /// A section box X0,Y0,Z0,X1,Y1,Z1: only what lies inside it stays.
-    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
-    pub section_box: Option<String>,
+    #[command(flatten)]
+    pub cut: engine_cli::SectionArgs,
     /// Open at a BCF 2.1 viewpoint (`.bcfv`): its camera and clipping planes
     /// (BCF's Z-up project coordinates; the scene's origin is taken out).
     #[arg(long, value_name = "FILE.bcfv")]

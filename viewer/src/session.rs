@@ -120,20 +120,11 @@ impl Session {
         x: f32,
         y: f32,
     ) -> Result<Option<crate::picking::Selection>> {
+        self.picker()?;
+        let picker = self.picker.as_ref().expect("opened above");
         let cfg = *self.renderer.config();
-        let (origin, section) = (self.origin, self.settings.params.section);
-        let hidden = std::mem::take(&mut self.hidden);
-        let got = self.picker().and_then(|p| {
-            p.pick(
-                pose,
-                (cfg.width, cfg.height),
-                x,
-                y,
-                (origin, &section, &hidden),
-            )
-        });
-        self.hidden = hidden;
-        got
+        let cut = (self.origin, &self.settings.params.section, &self.hidden[..]);
+        picker.pick(pose, (cfg.width, cfg.height), x, y, cut)
     }
 
     /// The scene's object section and GlobalIds (opened once).
@@ -149,11 +140,11 @@ impl Session {
     /// list shows everything) from the next frame on: they leave the front
     /// and are not fetched. Returns how many are hidden.
     pub fn set_hidden(&mut self, hidden: Vec<bool>) -> Result<usize> {
-        let skel = self.skeleton.clone();
-        let h = {
-            let table = self.picker()?.objects();
-            engine::hide::Hiding::new(&skel, table, |k| hidden.get(k as usize) == Some(&true))
-        };
+        self.picker()?;
+        let table = self.picker.as_ref().expect("opened above").objects();
+        let h = engine::hide::Hiding::new(&self.skeleton, table, |k| {
+            hidden.get(k as usize) == Some(&true)
+        });
         let n = h.hidden_objects();
         self.hidden = hidden;
         self.hiding = Some(h);

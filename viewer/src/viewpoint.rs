@@ -238,16 +238,5 @@ fn look_rotation(dir: Vec3, up: Vec3) -> Result<Quat> {
     Ok(Quat::from_mat3(&Mat3::from_cols(right, u, -f)).normalize())
 }
 
-/// The GlobalId of a picked element, from its description.
-pub fn global_id_of(sel: &crate::picking::Selection) -> Option<String> {
-    let info = serde_json::json!({
-        "name": sel.name,
-        "mesh_name": sel.mesh_name,
-        "extras": sel.extras.as_deref().and_then(|e| serde_json::from_str::<serde_json::Value>(e).ok()),
-    });
-    let id = hlod_builder::tiles3d::element(0, &info.to_string()).global_id;
-    is_global_id(&id).then_some(id)
-}
-
 #[cfg(test)]
 mod tests;

@@ -9,6 +9,13 @@ use glam::Vec3;
 
 use common::{artefacts, can_run, fzk_haus, scene_coverage, view};
 
+/// `hlod-view` under Xvfb with `args`, in an 800×450 window.
+fn view_800(dir: &std::path::Path, args: &[&str]) -> std::process::Output {
+    let mut all = args.to_vec();
+    all.extend(["--width", "800", "--height", "450"]);
+    view(dir, &all)
+}
+
 /// A BCF 2.1 viewpoint of the box `[min, max]` (scene coordinates) of a
 /// scene at `origin`, seen from a corner above, cut at mid-height when
 /// `cut` (the half above removed).
@@ -79,7 +86,7 @@ fn opens_at_a_bcf_viewpoint_cuts_the_model_and_saves_the_view() {
         let vp = d.join(format!("in-{cut}.bcfv"));
         std::fs::write(&vp, bcf_viewpoint(min, max, origin, cut)).unwrap();
         let (shot, saved) = (format!("{cut}.png"), format!("out-{cut}.bcfv"));
-        let out = view(
+        let out = view_800(
             d,
             &[
                 scene.to_str().unwrap(),
@@ -90,10 +97,6 @@ fn opens_at_a_bcf_viewpoint_cuts_the_model_and_saves_the_view() {
                 "--exit-when-complete",
                 "--screenshot",
                 &shot,
-                "--width",
-                "800",
-                "--height",
-                "450",
             ],
         );
         let so = String::from_utf8_lossy(&out.stdout).into_owned();
@@ -155,35 +158,6 @@ fn opens_at_a_bcf_viewpoint_cuts_the_model_and_saves_the_view() {
     assert!(tops[1] > tops[0] + 10, "top rows {tops:?}");
 }
 
-/// A closed box `[-h, h]³`, faces wound counter-clockwise from outside.
-fn cube(h: f32) -> hlod_builder::mesh::Mesh {
-    let mut m = hlod_builder::mesh::Mesh {
-        positions: Vec::new(),
-        normals: Vec::new(),
-        colors: Vec::new(),
-        indices: Vec::new(),
-    };
-    for axis in 0..3 {
-        for sign in [-1.0f32, 1.0] {
-            let mut n = Vec3::ZERO;
-            n[axis] = sign;
-            let (mut u, mut v) = n.any_orthonormal_pair();
-            if u.cross(v).dot(n) < 0.0 {
-                std::mem::swap(&mut u, &mut v);
-            }
-            let base = m.positions.len() as u32;
-            for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                m.positions.push(((n + u * su + v * sv) * h).to_array());
-                m.normals.push(n.to_array());
-                m.colors.push([180, 180, 200, 255]);
-            }
-            m.indices
-                .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
-        }
-    }
-    m
-}
-
 #[test]
 fn measures_between_two_snapped_corners_in_metres() {
     if !can_run("measures_between_two_snapped_corners_in_metres") {
@@ -198,7 +172,15 @@ fn measures_between_two_snapped_corners_in_metres() {
         mesh: 0,
         transform: glam::Mat4::IDENTITY,
     }];
-    std::fs::write(d.join("cube.glb"), to_glb(&[cube(1.0)], &objects).unwrap()).unwrap();
+    std::fs::write(
+        d.join("cube.glb"),
+        to_glb(
+            &[e2e_tests::cube(Vec3::ZERO, 1.0, [180, 180, 200, 255])],
+            &objects,
+        )
+        .unwrap(),
+    )
+    .unwrap();
     let scene = d.join("cube.hlod");
     hlod_builder::build::build_file(&d.join("cube.glb"), &scene, &Default::default(), false)
         .unwrap();
@@ -229,7 +211,7 @@ fn measures_between_two_snapped_corners_in_metres() {
         px(Vec3::new(1.0, -1.0, 1.0)),
     );
     let clicks = format!("{},{},{},{}", a.0 + 3.0, a.1 - 3.0, b.0 - 3.0, b.1 - 3.0);
-    let out = view(
+    let out = view_800(
         d,
         &[
             scene.to_str().unwrap(),
@@ -240,10 +222,6 @@ fn measures_between_two_snapped_corners_in_metres() {
             "--exit-when-complete",
             "--screenshot",
             "measure.png",
-            "--width",
-            "800",
-            "--height",
-            "450",
         ],
     );
     let so = String::from_utf8_lossy(&out.stdout).into_owned();
@@ -268,7 +246,7 @@ fn measures_between_two_snapped_corners_in_metres() {
     // its two triangles): not snapped, 1 m apart.
     let (l, r) = (px(Vec3::new(-0.5, 0.0, 1.0)), px(Vec3::new(0.5, 0.0, 1.0)));
     let clicks = format!("{},{},{},{}", l.0, l.1, r.0, r.1);
-    let out = view(
+    let out = view_800(
         d,
         &[
             scene.to_str().unwrap(),
@@ -277,10 +255,6 @@ fn measures_between_two_snapped_corners_in_metres() {
             "--measure",
             &clicks,
             "--exit-when-complete",
-            "--width",
-            "800",
-            "--height",
-            "450",
         ],
     );
     let so = String::from_utf8_lossy(&out.stdout).into_owned();
@@ -330,7 +304,7 @@ fn a_viewpoint_hides_its_components_and_the_view_saved_lists_them() {
         let xml = bcf_viewpoint(min, max, origin, false).replace(plain, &comps);
         std::fs::write(&vp, xml).unwrap();
         let (shot, saved) = (format!("{name}.png"), format!("{name}-out.bcfv"));
-        let out = view(
+        let out = view_800(
             d,
             &[
                 scene.to_str().unwrap(),
@@ -341,10 +315,6 @@ fn a_viewpoint_hides_its_components_and_the_view_saved_lists_them() {
                 "--exit-when-complete",
                 "--screenshot",
                 &shot,
-                "--width",
-                "800",
-                "--height",
-                "450",
             ],
         );
         let so = String::from_utf8_lossy(&out.stdout).into_owned();
@@ -413,7 +383,7 @@ fn finds_an_element_by_global_id_and_flies_to_it() {
     let scene = d.join("haus.hlod");
     hlod_builder::build::build_file(&fzk_haus(), &scene, &Default::default(), false).unwrap();
     let run = |find: &str, shot: &str| {
-        let out = view(
+        let out = view_800(
             d,
             &[
                 scene.to_str().unwrap(),
@@ -422,10 +392,6 @@ fn finds_an_element_by_global_id_and_flies_to_it() {
                 "--exit-when-complete",
                 "--screenshot",
                 shot,
-                "--width",
-                "800",
-                "--height",
-                "450",
             ],
         );
         (

@@ -231,6 +231,27 @@ pub fn auto_budget(skeleton: &engine::Skeleton) -> u64 {
         .max(1)
 }
 
+/// `--section` and `--section-box`, as `hlod-view` and `hlod-bench` take
+/// them (`#[command(flatten)]`).
+#[derive(Clone, Debug, Default, clap::Args)]
+pub struct SectionArgs {
+    /// A section plane X,Y,Z,DX,DY,DZ (repeatable; scene coordinates, as in
+    /// camera paths): what lies on the side the direction points to is cut
+    /// away, leaves every front and is not fetched.
+    #[arg(long, value_name = "X,Y,Z,DX,DY,DZ", allow_hyphen_values = true)]
+    pub section: Vec<String>,
+    /// A section box X0,Y0,Z0,X1,Y1,Z1: only what lies inside it stays.
+    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
+    pub section_box: Option<String>,
+}
+
+impl SectionArgs {
+    /// The section the options give ([`parse_section`]).
+    pub fn section(&self) -> anyhow::Result<Section> {
+        parse_section(&self.section, self.section_box.as_deref())
+    }
+}
+
 /// The section of `--section X,Y,Z,DX,DY,DZ` (repeatable: a plane through
 /// the point removing the side the direction points to, as BCF's clipping
 /// planes) and `--section-box X0,Y0,Z0,X1,Y1,Z1` (only its inside stays),

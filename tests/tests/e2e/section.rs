@@ -12,45 +12,6 @@ use hlod_builder::scenegen::glb::{GlbObject, to_glb};
 
 use super::render::{build, load, params, renderer, shot};
 
-/// A closed box `[-h, h]³` centred at `c`, faces wound counter-clockwise
-/// seen from outside, normals outwards.
-fn cube(c: Vec3, h: f32, color: [u8; 4]) -> Mesh {
-    let mut m = Mesh {
-        positions: Vec::new(),
-        normals: Vec::new(),
-        colors: Vec::new(),
-        indices: Vec::new(),
-    };
-    for axis in 0..3 {
-        for sign in [-1.0f32, 1.0] {
-            let mut n = Vec3::ZERO;
-            n[axis] = sign;
-            // Two axes spanning the face, u × v = n.
-            let (u, v) = if sign > 0.0 {
-                (n.any_orthonormal_pair().0, n.any_orthonormal_pair().1)
-            } else {
-                let (a, b) = (-n).any_orthonormal_pair();
-                (b, a)
-            };
-            let (u, v) = if u.cross(v).dot(n) > 0.0 {
-                (u, v)
-            } else {
-                (v, u)
-            };
-            let base = m.positions.len() as u32;
-            for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                let p = c + (n + u * su + v * sv) * h;
-                m.positions.push(p.to_array());
-                m.normals.push(n.to_array());
-                m.colors.push(color);
-            }
-            m.indices
-                .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
-        }
-    }
-    m
-}
-
 /// The model (in the first folder) built into a scene (in the second).
 fn scene(meshes: &[Mesh]) -> (tempfile::TempDir, tempfile::TempDir, std::path::PathBuf) {
     let objects: Vec<GlbObject> = (0..meshes.len())
@@ -72,8 +33,8 @@ fn a_section_cuts_away_what_it_removes_and_caps_the_cut() {
     // Seen from +z: a grey cube in front (z in -1..1) and a green one far
     // behind it (z in -7..-5), both 2 m wide.
     let (_model, _d, path) = scene(&[
-        cube(Vec3::ZERO, 1.0, [200, 200, 200, 255]),
-        cube(Vec3::new(0.0, 0.0, -6.0), 1.0, [0, 220, 0, 255]),
+        e2e_tests::cube(Vec3::ZERO, 1.0, [200, 200, 200, 255]),
+        e2e_tests::cube(Vec3::new(0.0, 0.0, -6.0), 1.0, [0, 220, 0, 255]),
     ]);
     let (skel, source, data) = load(&path);
     let test = "a_section_cuts_away_what_it_removes_and_caps_the_cut";
@@ -128,8 +89,8 @@ fn a_hidden_element_of_a_merged_leaf_is_not_drawn() {
     use engine::render::Renderer;
     // The same two cubes: small enough to share one merged leaf.
     let (_model, _d, path) = scene(&[
-        cube(Vec3::ZERO, 1.0, [200, 200, 200, 255]),
-        cube(Vec3::new(0.0, 0.0, -6.0), 1.0, [0, 220, 0, 255]),
+        e2e_tests::cube(Vec3::ZERO, 1.0, [200, 200, 200, 255]),
+        e2e_tests::cube(Vec3::new(0.0, 0.0, -6.0), 1.0, [0, 220, 0, 255]),
     ]);
     let file = engine::SceneFile::open(&path).unwrap();
     let table = file.read_objects().unwrap();

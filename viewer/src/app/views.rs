@@ -14,7 +14,7 @@ use engine::section::Section;
 use glam::Vec3;
 
 use super::App;
-use crate::viewpoint::{Viewpoint, global_id_of};
+use crate::viewpoint::Viewpoint;
 
 /// A pick snaps to a corner or an edge this close on screen (pixels).
 const SNAP_PX: f32 = 8.0;
@@ -146,39 +146,6 @@ impl App {
         self.ui_dirty = true;
     }
 
-    /// The selection's box edges in pixels, for the overlay.
-    pub(super) fn highlight_edges(&self, pose: &Pose) -> Vec<[(f32, f32); 2]> {
-        match (&self.selection, &self.session) {
-            (Some(sel), Some(s)) => {
-                let c = s.renderer.config();
-                crate::picking::box_edges(pose, (c.width, c.height), sel.scene_min, sel.scene_max)
-            }
-            _ => Vec::new(),
-        }
-    }
-
-    /// The last measurement (or the first point of one under way) in
-    /// pixels, and its label, for the overlay.
-    pub(super) fn measure_mark(&self, pose: &Pose) -> Option<crate::ui::MeasureMark> {
-        let s = self.session.as_ref()?;
-        let c = s.renderer.config();
-        let px = |p: Vec3| pose.project(c.width, c.height, p).map(|(x, y, _)| (x, y));
-        if let Some(m) = &self.measuring.last {
-            return Some(crate::ui::MeasureMark {
-                from: px(m.a)?,
-                to: px(m.b)?,
-                label: format!("{:.3} m", m.distance()),
-            });
-        }
-        let (a, _) = self.measuring.first?;
-        let p = px(a)?;
-        Some(crate::ui::MeasureMark {
-            from: p,
-            to: p,
-            label: "click the second point".into(),
-        })
-    }
-
     /// Applies `--viewpoint` to the scene just opened: its camera and its
     /// clipping planes (with those given on the command line). A viewpoint that cannot be read ends the run with
     /// an error that names it.
@@ -223,7 +190,7 @@ impl App {
             let found = sess.picker().map(|p| {
                 p.find(id, origin)
                     .into_iter()
-                    .find(|s| global_id_of(s).as_deref() == Some(id.as_str()))
+                    .find(|s| s.object.and_then(|k| p.global_id(k)).as_deref() == Some(id))
             });
             match found {
                 Ok(Some(sel)) => {
@@ -323,7 +290,10 @@ impl App {
         let v = Viewpoint {
             pose: self.frozen.unwrap_or_else(|| self.controls.pose()),
             section: sess.settings.params.section,
-            selected: self.selection.iter().filter_map(global_id_of).collect(),
+            selected: match self.selection.as_ref().and_then(|s| s.object) {
+                Some(k) => sess.picker()?.global_id(k).into_iter().collect(),
+                None => Vec::new(),
+            },
             default_visible,
             exceptions,
         };
@@ -399,4 +369,40 @@ fn read_text(path: &std::path::Path) -> Result<String> {
         .read_to_string(&mut s)
         .context("not UTF-8 text")?;
     Ok(s)
+}
+
+/// What the overlay marks in the view from `pose`, in pixels: the
+/// selection's box edges, and the last measurement (or the first point of
+/// one under way) with its label. Taken field by field, so that it can be
+/// called while the window is borrowed.
+pub(super) fn overlay_marks(
+    selection: Option<&crate::picking::Selection>,
+    session: Option<&crate::session::Session>,
+    measuring: &Measuring,
+    pose: &Pose,
+) -> (Vec<[(f32, f32); 2]>, Option<crate::ui::MeasureMark>) {
+    let Some(s) = session else {
+        return (Vec::new(), None);
+    };
+    let c = s.renderer.config();
+    let edges = selection.map_or_else(Vec::new, |sel| {
+        crate::picking::box_edges(pose, (c.width, c.height), sel.scene_min, sel.scene_max)
+    });
+    let px = |p: Vec3| pose.project(c.width, c.height, p).map(|(x, y, _)| (x, y));
+    let mark = match (&measuring.last, measuring.first) {
+        (Some(m), _) => px(m.a)
+            .zip(px(m.b))
+            .map(|(from, to)| crate::ui::MeasureMark {
+                from,
+                to,
+                label: format!("{:.3} m", m.distance()),
+            }),
+        (None, Some((a, _))) => px(a).map(|p| crate::ui::MeasureMark {
+            from: p,
+            to: p,
+            label: "click the second point".into(),
+        }),
+        (None, None) => None,
+    };
+    (edges, mark)
 }

@@ -151,14 +151,8 @@ pub struct Args {
     /// occluder store takes (P_I's reps get the rest), e.g. 0.05.
     #[arg(long, default_value_t = 0.0, value_parser = in_range(0.0f32, 0.5))]
     pub occlusion: f32,
-    /// A section plane X,Y,Z,DX,DY,DZ (repeatable; scene coordinates): what
-    /// lies on the side the direction points to is cut away, leaves every
-    /// front and is not fetched.
-    #[arg(long, value_name = "X,Y,Z,DX,DY,DZ", allow_hyphen_values = true)]
-    pub section: Vec<String>,
-    /// A section box X0,Y0,Z0,X1,Y1,Z1: only what lies inside it stays.
-    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
-    pub section_box: Option<String>,
+    #[command(flatten)]
+    pub cut: engine_cli::SectionArgs,
     /// Hide every element whose description (name, mesh name, `extras`:
     /// IFC type, GlobalId) contains this text (repeatable): hidden
     /// elements leave the front and are not fetched.

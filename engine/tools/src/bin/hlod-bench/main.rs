@@ -221,7 +221,7 @@ fn run(a: Args) -> Result<()> {
             },
         ),
         fade_s: a.fade,
-        section: engine_cli::parse_section(&a.section, a.section_box.as_deref())?,
+        section: a.cut.section()?,
         ..RuntimeParams::default()
     };
     println!(
