@@ -8,7 +8,9 @@
 # bytes and substituted frames. Same path, same ε (2 px), same footprint (5%, `ssd`), `none`
 # renderer. The scenes are built as scripts/anatomy.sh builds them (in out/scenes/).
 # Table: out/section/summary.md. About 15 minutes on 2 cores.
-# Usage: [VARIANTS="none storey hide:TEXT …"] scripts/bench-section.sh [TOP] [SEEDS] [FRAMES] [BUDGET]
+# VARIANTS="none walk" walks the paths instead (hlod-bench --walk): the walker's cost per frame
+# and its walk map's bytes go to out/section/walk-lines.txt.
+# Usage: [VARIANTS="none storey hide:TEXT walk …"] scripts/bench-section.sh [TOP] [SEEDS] [FRAMES] [BUDGET]
 #   (defaults: VARIANTS="none storey", 2.5 1,2 600 5%; tables to out/section/summary.md, or
 #   summary-hide.md when a variant hides)
 set -euo pipefail
@@ -22,8 +24,8 @@ out=out/section
 mkdir -p "$dir" "$out"
 cargo build --release -p hlod-builder -p engine-tools
 B=target/release
-tiled() { # name source
-  if [ ! -s "$dir/$1.hlod" ]; then
+tiled() { # name source (rebuilt when it has no walk section: built before format version 5)
+  if [ ! -s "$dir/$1.hlod" ] || $B/hlod-build info "$dir/$1.hlod" | grep -q "walk section: none"; then
     $B/hlod-build gen tile "../shared/data/$2.glb" --grid 10x10 --baked -o "$dir/$1.glb"
     $B/hlod-build build -q "$dir/$1.glb" -o "$dir/$1.hlod"
     rm -f "$dir/$1.glb"
@@ -44,7 +46,7 @@ sum() { # file column scale
 }
 variants="${VARIANTS:-none storey}"
 summary="$out/summary.md"
-case "$variants" in *hide:*) summary="$out/summary-hide.md" ;; esac
+case "$variants" in *hide:*) summary="$out/summary-hide.md" ;; *walk*) summary="$out/summary-walk.md"; rm -f "$out/walk-lines.txt" ;; esac
 {
   echo "| scene | path | seed | section or hidden | front MiB median / max | front tris median | in-core ms median / p99 | pre ms median / p99 | Stage II MiB | frames substituted |"
   echo "|---|---|---:|---|---:|---:|---:|---:|---:|---:|"
@@ -64,6 +66,7 @@ for scene in schep10 duplex10; do
         case "$cut" in
           storey) args=(--section-box "$box") label="box y ≤ $top m" ;;
           hide:*) args=(--hide "${cut#hide:}") label="${cut#hide:} hidden" ;;
+          walk) args=(--walk) label="walked" ;;
         esac
         $B/hlod-bench "$dir/$scene.hlod" --path-kind "$kind" --seed "$seed" --frames "$frames" \
           --modes incore,pre --budget "$budget" --disk ssd "${args[@]}" --out "$o" > "$o.log" 2>&1
@@ -74,6 +77,9 @@ for scene in schep10 duplex10; do
         read -r s2 _ < <(sum "$o/pre.csv" stage2_bytes 1048576)
         read -r _ subs < <(sum "$o/pre.csv" substituted 1)
         echo "| $scene | $kind | $seed | $label | $fm / $fx | ${ft%.*} | $im / $ip | $pm / $pp | $s2 | $subs |" >> "$summary"
+        if [ "$cut" = walk ]; then
+          echo "$scene $kind s$seed: $(grep '^walk:' "$o.log")" >> "$out/walk-lines.txt"
+        fi
       done
     done
   done

@@ -81,6 +81,7 @@ pub mod scene_handle;
 pub mod section;
 pub mod skeleton;
 pub mod vdt;
+pub mod walk;
 
 #[cfg(test)]
 mod testutil;

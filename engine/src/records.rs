@@ -12,10 +12,10 @@ compile_error!("the scene format is little-endian and this engine reads it by ca
 /// File magic: the first eight bytes of every scene file.
 pub const MAGIC: [u8; 8] = *b"OOCHLOD\0";
 /// The format version this build writes (and the newest it reads).
-/// Version 4 adds the Multi-Triangulation rep kind; version 3 packs the
+/// Version 5 adds the walk section; version 4 the Multi-Triangulation rep kind; version 3 packs the
 /// reps on [`REP_ALIGN`] boundaries; versions 1 and 2 padded every rep to a
 /// [`BLOCK`].
-pub const VERSION: u32 = 4;
+pub const VERSION: u32 = 5;
 /// The oldest version this build reads (no origin, no object section).
 pub const OLDEST_VERSION: u32 = 1;
 /// Alignment of the data section, the skeleton section and of every
@@ -76,9 +76,66 @@ pub struct FileHeader {
     /// Of `input_triangles`, those of objects left out by default (IFC
     /// opening voids and spaces), as `drawn_triangles`.
     pub hidden_triangles: [u32; 2],
+    /// CRC-32 of the walk section's header and index (version 5).
+    pub walk_crc: u32,
+    /// The walk section (after the object section; length 0 when absent):
+    /// solid space for walking ([`crate::format::walk`]).
+    pub walk_offset: u64,
+    pub walk_len: u64,
+    pub reserved: [u64; 6],
+}
+const _: () = assert!(size_of::<FileHeader>() == 256);
+
+/// The header of versions 2 to 4: the version-5 one up to `hidden_triangles`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FileHeaderV2 {
+    pub magic: [u8; 8],
+    pub version: u32,
+    /// `size_of::<FileHeader>()`, for forward compatibility checks.
+    pub header_size: u32,
+    pub node_count: u32,
+    pub rep_count: u32,
+    /// Objects (glTF mesh instances) in the source scene.
+    pub object_count: u32,
+    pub flags: u32,
+    /// Triangles in the source scene after instancing.
+    pub input_triangles: u64,
+    pub data_offset: u64,
+    pub data_len: u64,
+    pub skeleton_offset: u64,
+    pub skeleton_len: u64,
+    pub file_len: u64,
+    pub bounds_min: [f32; 3],
+    pub bounds_max: [f32; 3],
+    /// CRC-32 of the skeleton section.
+    pub skeleton_crc: u32,
+    /// CRC-32 of this header with this field set to zero.
+    pub header_crc: u32,
+    /// World position of the scene's origin: stored coordinates are
+    /// relative to it (version 2; zero for version 1).
+    pub origin: [f64; 3],
+    /// The object section (after the skeleton; length 0 when absent).
+    pub objects_offset: u64,
+    pub objects_len: u64,
+    /// CRC-32 of the object section.
+    pub objects_crc: u32,
+    /// What the scene was built from: a hash of the input's bytes (the
+    /// model and its buffers) and of the build parameters, as the builder
+    /// keys its cache and its shards (zero when not recorded: files of
+    /// earlier builds, scenes built in memory). Inside the header's CRC.
+    pub source_key: [u8; 16],
+    /// Of `input_triangles`, those the finest reps hold (degenerate ones
+    /// and hidden objects' left out), as the low and high halves of a
+    /// `u64` (the header has no 8-aligned room left); zero when not
+    /// recorded (files of earlier builds). Inside the header's CRC.
+    pub drawn_triangles: [u32; 2],
+    /// Of `input_triangles`, those of objects left out by default (IFC
+    /// opening voids and spaces), as `drawn_triangles`.
+    pub hidden_triangles: [u32; 2],
     pub reserved: [u32; 1],
 }
-const _: () = assert!(size_of::<FileHeader>() == 192);
+const _: () = assert!(size_of::<FileHeaderV2>() == 192);
 
 /// The version-1 header: the version-2 one up to `header_crc`.
 #[repr(C)]
@@ -144,7 +201,47 @@ impl FileHeaderV1 {
             source_key: [0; 16],
             drawn_triangles: [0; 2],
             hidden_triangles: [0; 2],
-            reserved: [0; 1],
+            walk_crc: 0,
+            walk_offset: self.file_len,
+            walk_len: 0,
+            reserved: [0; 6],
+        }
+    }
+}
+
+impl FileHeaderV2 {
+    /// The same facts in the version-5 layout (no walk section).
+    /// `header_crc` keeps the old value.
+    pub fn upgrade(&self) -> FileHeader {
+        FileHeader {
+            magic: self.magic,
+            version: self.version,
+            header_size: size_of::<FileHeader>() as u32,
+            node_count: self.node_count,
+            rep_count: self.rep_count,
+            object_count: self.object_count,
+            flags: self.flags,
+            input_triangles: self.input_triangles,
+            data_offset: self.data_offset,
+            data_len: self.data_len,
+            skeleton_offset: self.skeleton_offset,
+            skeleton_len: self.skeleton_len,
+            file_len: self.file_len,
+            bounds_min: self.bounds_min,
+            bounds_max: self.bounds_max,
+            skeleton_crc: self.skeleton_crc,
+            header_crc: self.header_crc,
+            origin: self.origin,
+            objects_offset: self.objects_offset,
+            objects_len: self.objects_len,
+            objects_crc: self.objects_crc,
+            source_key: self.source_key,
+            drawn_triangles: self.drawn_triangles,
+            hidden_triangles: self.hidden_triangles,
+            walk_crc: 0,
+            walk_offset: self.file_len,
+            walk_len: 0,
+            reserved: [0; 6],
         }
     }
 }

@@ -32,6 +32,7 @@ mod source;
 use crate::cluster::cluster;
 use crate::import::{self, ImportError, Imported};
 use crate::lod::{LodParams, lod_chain};
+pub(crate) use leaf::transformed_bounds;
 use leaf::{Item, object_infos};
 pub use source::SceneSource;
 
@@ -71,6 +72,8 @@ pub struct BuildParams {
     /// openings' voids and spaces' volumes ([`crate::import::ifc_void`]).
     /// Left out by default (counted in [`BuildStats::hidden_objects`]).
     pub ifc_voids: bool,
+    /// Cell side of the walk section, metres ([`crate::walkmap`]; 0: none).
+    pub walk_cell: f32,
 }
 
 impl Default for BuildParams {
@@ -89,6 +92,7 @@ impl Default for BuildParams {
             spatial_layout: true,
             compress_reps: true,
             ifc_voids: false,
+            walk_cell: 0.1,
         }
     }
 }
@@ -115,6 +119,9 @@ impl BuildParams {
         }
         if self.hlod_tris < 4 || l.min_tris < 1 {
             return bad("--hlod-tris must be at least 4");
+        }
+        if !(self.walk_cell == 0.0 || (0.02..=10.0).contains(&self.walk_cell)) {
+            return bad("--walk-cell must be 0 (no walk section) or in [0.02, 10] metres");
         }
         if !(self.hlod_ratio > 0.0 && self.hlod_ratio <= 1.0) {
             return bad("--hlod-ratio must be in (0, 1]");
@@ -199,6 +206,8 @@ pub struct BuildStats {
     pub memory_plan: Option<memory::MemoryPlan>,
     /// The most heap in use at once, where the heap is counted.
     pub peak_heap: Option<u64>,
+    /// The walk section.
+    pub walk: crate::walkmap::WalkStats,
 }
 
 /// Where a build is: a stage name, nodes done and nodes in all (0 while
@@ -558,6 +567,25 @@ fn scene_tail(
     (meta, ObjectTable::encode(&object_infos(scene), leaf_runs))
 }
 
+/// The walk section of the drawn objects.
+pub(crate) fn walk_tail<S: SceneSource>(
+    src: &S,
+    params: &BuildParams,
+    opts: &RunOptions<'_>,
+    stats: &mut BuildStats,
+) -> Result<Vec<u8>, FormatError> {
+    (opts.report)("walk section", 0, 0);
+    let draws = source::drawn(src.scene(), params);
+    // What the cells and batches used is free again.
+    let heap = stats
+        .memory_plan
+        .map_or(u64::MAX, |p| p.limit.saturating_sub(p.fixed) / 2)
+        .max(1 << 20);
+    let (bytes, walk) = crate::walkmap::walk_section(src, params.walk_cell, &draws, heap)?;
+    stats.walk = walk;
+    Ok(bytes)
+}
+
 /// The figures of a finished skeleton.
 fn skeleton_stats(stats: &mut BuildStats, skeleton: &Skeleton, object_bytes: usize) {
     stats.object_bytes = object_bytes as u64;
@@ -592,7 +620,8 @@ fn build_in_make_order<S: SceneSource, W: Write + std::io::Seek>(
     } = asm;
     let skeleton = skeleton_of(nodes, node_reps);
     let (meta, objects) = scene_tail(src.scene(), &stats, &leaf_runs);
-    let mut sink = writer.finish_with_objects(&skeleton, &meta, &objects)?;
+    let walk = walk_tail(src, params, opts, &mut stats)?;
+    let mut sink = writer.finish_with_sections(&skeleton, &meta, &objects, &walk)?;
     sink.flush()?;
     skeleton_stats(&mut stats, &skeleton, objects.len());
     Ok(stats)

@@ -79,6 +79,11 @@ pub(crate) struct BuildArgs {
     /// `IfcSpace*` by name), which are left out by default.
     #[arg(long)]
     ifc_voids: bool,
+    /// Cell side of the walk section in metres: solid space by columns,
+    /// which walk mode collides with (0: none; a site too large for 32M
+    /// cells gets a coarser grid).
+    #[arg(long, default_value_t = 0.1)]
+    walk_cell: f32,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
@@ -117,6 +122,7 @@ fn params_of(a: &BuildArgs) -> Result<BuildParams> {
         },
         compress_reps: !a.raw_reps,
         ifc_voids: a.ifc_voids,
+        walk_cell: a.walk_cell,
     })
 }
 
@@ -194,6 +200,7 @@ pub(crate) fn build(a: BuildArgs) -> Result<()> {
             stats.hidden_objects, stats.hidden_triangles
         );
     }
+    println!("{}", hlod_builder::walkmap::walk_line(&stats.walk));
     if let Some(p) = stats.memory_plan {
         println!(
             "memory: limit {}, {} for the objects and graph, {} cell(s) of at most {} input triangles, leaves {} at a time; peak heap {}",

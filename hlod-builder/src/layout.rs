@@ -110,19 +110,25 @@ pub fn relayout<S: ByteSource, W: Write + Seek>(
         };
         (rec.offset, rec.len, rec.checksum) = (loc.offset, loc.len, loc.checksum);
     }
-    writer.finish_with_objects(&skeleton, &src.meta(), &src.read_objects_bytes()?)
+    writer.finish_with_sections(
+        &skeleton,
+        &src.meta(),
+        &src.read_objects_bytes()?,
+        &src.read_walk_bytes()?,
+    )
 }
 
 /// Writes a scene whose reps lie in several files (a merged sharded build):
 /// `skeleton`'s reps of node `i` are read from `sources[source_of_node[i]]`
 /// at their offsets, checked, and written in [`file_order`] with the same
-/// bytes, as [`relayout`] does with [`Payloads::Keep`].
+/// bytes, as [`relayout`] does with [`Payloads::Keep`]; then the object and
+/// walk sections.
 pub fn relayout_parts<S: ByteSource, W: Write + Seek>(
     skeleton: &Skeleton,
     source_of_node: &[usize],
     sources: &[S],
     meta: &engine::format::SceneMeta,
-    objects: &[u8],
+    (objects, walk): (&[u8], &[u8]),
     sink: W,
 ) -> Result<W, FormatError> {
     let mut skeleton = skeleton.clone();
@@ -141,7 +147,7 @@ pub fn relayout_parts<S: ByteSource, W: Write + Seek>(
             writer.write_rep(&buf)?.offset
         };
     }
-    writer.finish_with_objects(&skeleton, meta, objects)
+    writer.finish_with_sections(&skeleton, meta, objects, walk)
 }
 
 /// [`relayout`] from file `input` to file `output`, written atomically.

@@ -16,6 +16,7 @@
 //! - [`heap`]: the counted heap a build is sized and checked by.
 //! - [`summary`]: the Table-1-style summary printed by `build` and `info`.
 //! - [`tiles3d`]: export of a scene file as an OGC 3D Tiles 1.1 tileset.
+//! - [`walkmap`]: the walk section (solid space by columns, for walk mode).
 
 pub mod build;
 pub mod cache;
@@ -31,5 +32,6 @@ pub mod scenegen;
 pub mod summary;
 pub mod tiles3d;
 pub mod vdt;
+pub mod walkmap;
 
 pub use build::{BuildError, BuildParams, BuildStats, build_file};

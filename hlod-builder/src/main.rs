@@ -412,6 +412,10 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
             .map_or(f32::NAN, |r| r.error)
     );
     println!("{}", input_line(&scene.meta()));
+    println!(
+        "{}",
+        hlod_builder::walkmap::walk_line(&hlod_builder::summary::stats_of(&scene).walk)
+    );
     let o = scene.meta().origin;
     println!(
         "origin {} {} {} (world position of the scene's coordinates; {} in the object section)",

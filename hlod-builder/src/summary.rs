@@ -39,6 +39,16 @@ pub fn stats_of<S: ByteSource>(scene: &SceneFile<S>) -> BuildStats {
         cells: 0,
         memory_plan: None,
         peak_heap: None,
+        walk: crate::walkmap::WalkStats {
+            cell: scene
+                .read_walk_index()
+                .ok()
+                .flatten()
+                .map_or(0.0, |i| i.header.cell),
+            cells: 0,
+            bytes: h.walk_len,
+            bands: 0,
+        },
     }
 }
 

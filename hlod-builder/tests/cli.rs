@@ -424,7 +424,8 @@ fn real_exports_build_or_fail_cleanly_and_warnings_print_either_way() {
     let info = hlod_build(&["info", "h.hlod"], d);
     let text = String::from_utf8_lossy(&info.stdout);
     assert!(
-        text.contains("format v4")
+        text.contains("format v5")
+            && text.contains("walk section: ")
             && text.contains("B per input triangle")
             && text.contains("mesh reps compressed")
             && text.contains("origin 0 0 0")

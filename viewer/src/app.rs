@@ -19,6 +19,7 @@ use winit::window::{Window, WindowId};
 
 mod frame;
 mod views;
+mod walking;
 
 use crate::Args;
 use crate::build::Building;
@@ -89,6 +90,7 @@ struct App {
     error: Option<String>,
     controls: Controls,
     held: Held,
+    walking: Option<walking::Walking>,
     looking: bool,
     cursor: Option<(f64, f64)>,
     frozen: Option<Pose>,
@@ -154,6 +156,7 @@ impl App {
             error: None,
             controls: Controls::new(glam::Vec3::splat(-1.0), glam::Vec3::splat(1.0)),
             held: Held::default(),
+            walking: None,
             looking: false,
             cursor: None,
             frozen: None,
@@ -313,6 +316,8 @@ impl App {
                 });
             }
             KeyCode::KeyM => self.toggle_measuring(),
+            KeyCode::KeyG => self.toggle_walk(),
+            KeyCode::KeyO => self.toggle_doors(),
             KeyCode::KeyV => self
                 .save_viewpoint(None)
                 .unwrap_or_else(|e| self.report(format!("{e:#}"))),
@@ -348,7 +353,7 @@ impl App {
                 if self.play.take().is_some() {
                     tracing::info!("path finished");
                 }
-                self.controls.update(&self.held, dt);
+                self.move_camera(dt);
                 self.controls.pose()
             }
         };
@@ -434,6 +439,7 @@ impl App {
                 playing: self.play.as_ref().map(|(p, i)| (*i, p.len())),
                 fly_speed: self.controls.speed,
                 orbit: self.controls.mode == crate::controls::ControlMode::Orbit,
+                walking: walking::status(self.walking.as_ref()),
             };
             let (ui_state, hist) = (&mut self.ui, &self.history);
             let out = gfx

@@ -121,6 +121,11 @@ pub struct Args {
     /// fly to it (the overlay's Find does the same).
     #[arg(long, value_name = "TEXT")]
     pub find: Option<String>,
+    /// Start in walk mode where the view opens (after --viewpoint or
+    /// --find): eye at 1.6 m, gravity, walls and stairs from the scene's walk
+    /// section; key G toggles walk and fly.
+    #[arg(long)]
+    pub walk: bool,
     /// Save the last frame (with the overlay) as PNG at exit.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,

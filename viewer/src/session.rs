@@ -127,6 +127,16 @@ impl Session {
         picker.pick(pose, (cfg.width, cfg.height), x, y, cut)
     }
 
+    /// The scene's walk section, read chunk by chunk (`None`: the file has
+    /// none). Its index is in core; at most [`engine::walk::DEFAULT_CAP`]
+    /// bytes of chunks are held besides.
+    pub fn walk_map(&self) -> Result<Option<engine::walk::WalkMap<Arc<dyn engine::ByteSource>>>> {
+        let named = || self.path.display().to_string();
+        let src = self.handle.raw().with_context(named)?;
+        let scene = SceneFile::from_source(src.clone()).with_context(named)?;
+        engine::walk::WalkMap::open(&scene, src, engine::walk::DEFAULT_CAP).with_context(named)
+    }
+
     /// The scene's object section and GlobalIds (opened once).
     pub fn picker(&mut self) -> Result<&crate::picking::Picker> {
         if self.picker.is_none() {

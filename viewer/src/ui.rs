@@ -75,6 +75,8 @@ pub struct View<'a> {
     pub playing: Option<(usize, usize)>,
     pub fly_speed: f32,
     pub orbit: bool,
+    /// Walk mode's status line, while walking.
+    pub walking: Option<String>,
 }
 
 fn series(h: &VecDeque<Sample>, f: impl Fn(&Sample) -> f64) -> PlotPoints<'static> {
@@ -220,11 +222,14 @@ pub fn draw(
                 act.settings = Some(s);
             }
             ui.separator();
-            ui.label(format!(
-                "{} (Tab), speed {:.2}/s (wheel), WASD/QE, shift runs, right-drag looks",
-                if v.orbit { "orbit" } else { "fly" },
-                v.fly_speed
-            ));
+            ui.label(match &v.walking {
+                Some(w) => format!("{w} (G flies), WASD, shift runs, right-drag looks"),
+                None => format!(
+                    "{} (Tab; G walks), speed {:.2}/s (wheel), WASD/QE, shift runs, right-drag looks",
+                    if v.orbit { "orbit" } else { "fly" },
+                    v.fly_speed
+                ),
+            });
             let planes = v.settings.map_or(0, |s| s.params.section.planes().len());
             ui.label(match planes {
                 0 => "no section (C cuts at eye height, B boxes the selection; H hides, I \

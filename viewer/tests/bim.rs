@@ -422,3 +422,145 @@ fn finds_an_element_by_global_id_and_flies_to_it() {
     let (ok, _, se) = run("no such element", "none.png");
     assert!(!ok && se.contains("no element matches"), "{se}");
 }
+
+/// Walk mode (`--walk`) on the FZK-Haus from a viewpoint a little above
+/// eye height in the ground storey: the eye stands at 1.6 m over the floor
+/// the walk section holds, and the view is drawn from there.
+#[test]
+fn walk_mode_stands_the_eye_on_the_floor() {
+    if !can_run("walk_mode_stands_the_eye_on_the_floor") {
+        return;
+    }
+    use engine::walk::{Body, SolidMap, WalkMap, Walker};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = d.join("haus.hlod");
+    hlod_builder::build::build_file(&fzk_haus(), &scene, &Default::default(), false).unwrap();
+    let file = engine::SceneFile::open(&scene).unwrap();
+    let origin = file.meta().origin;
+    let mut map = WalkMap::open(&file, engine::FileSource::open(&scene).unwrap(), 1 << 20)
+        .unwrap()
+        .unwrap();
+    // A free standing place on the ground floor with a ceiling above, and
+    // the direction with the longest free view at eye height from it.
+    let r = &file.skeleton().nodes[0];
+    let (min, max) = (Vec3::from(r.bbox_min), Vec3::from(r.bbox_max));
+    let g = map.grid();
+    let solid_at = |map: &mut WalkMap<engine::FileSource>, p: Vec3| -> bool {
+        map.column(g.cell_of(p.x), g.cell_of(p.z))
+            .map(|c| {
+                c.solid
+                    .iter()
+                    .chain(c.doors)
+                    .any(|s| g.height(s.lo) < p.y + 0.3 && g.height(s.hi) > p.y - 0.3)
+            })
+            .unwrap_or(true)
+    };
+    let mut best: Option<(f32, Vec3, Vec3)> = None;
+    for k in 0..400 {
+        let (i, j) = ((k % 20) as f32 / 20.0, (k / 20) as f32 / 20.0);
+        let p = Vec3::new(
+            min.x + (max.x - min.x) * (0.1 + 0.8 * i),
+            0.0,
+            min.z + (max.z - min.z) * (0.1 + 0.8 * j),
+        );
+        let Ok(w) = Walker::from_eye(Body::default(), &mut map, p + Vec3::Y * 1.6) else {
+            continue;
+        };
+        let roofed = map.column(g.cell_of(p.x), g.cell_of(p.z)).is_ok_and(|c| {
+            c.solid
+                .iter()
+                .any(|s| g.height(s.lo) > 2.0 && g.height(s.lo) < 3.5)
+        });
+        if !(roofed && w.grounded() && !w.stuck(&mut map).unwrap() && w.feet().y.abs() < 0.2) {
+            continue;
+        }
+        // Indoors: solid at eye height in every direction within 12 m.
+        let views: Vec<(f32, Vec3)> = (0..16)
+            .map(|d| {
+                let a = d as f32 * std::f32::consts::FRAC_PI_8;
+                let dir = Vec3::new(a.cos(), 0.0, a.sin());
+                let free = (1..120)
+                    .map(|s| s as f32 * 0.1)
+                    .find(|&t| solid_at(&mut map, w.eye() + dir * t))
+                    .unwrap_or(f32::INFINITY);
+                (free, dir)
+            })
+            .collect();
+        if views.iter().any(|v| v.0.is_infinite()) {
+            continue;
+        }
+        for (free, dir) in views {
+            if best.is_none_or(|b| free > b.0) {
+                best = Some((free, w.feet(), dir));
+            }
+        }
+    }
+    let (free, place, look) = best.expect("a place to stand on the ground floor");
+    assert!(free > 2.0, "a free view of {free} m");
+    let eye = place + Vec3::Y * 1.85;
+    let bcf = |v: Vec3, o: [f64; 3]| {
+        format!(
+            "<X>{}</X><Y>{}</Y><Z>{}</Z>",
+            f64::from(v.x) + o[0],
+            -(f64::from(v.z) + o[2]),
+            f64::from(v.y) + o[1]
+        )
+    };
+    let vp = format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<VisualizationInfo Guid=\"0e2000cc-c831-4cea-a847-a3d87ae572aa\">\
+         <PerspectiveCamera><CameraViewPoint>{}</CameraViewPoint><CameraDirection>{}</CameraDirection>\
+         <CameraUpVector>{}</CameraUpVector><FieldOfView>60</FieldOfView></PerspectiveCamera></VisualizationInfo>",
+        bcf(eye, origin),
+        bcf((look - Vec3::Y * 0.08).normalize(), [0.0; 3]),
+        bcf(Vec3::Y, [0.0; 3])
+    );
+    std::fs::write(d.join("in.bcfv"), vp).unwrap();
+    let out = view_800(
+        d,
+        &[
+            scene.to_str().unwrap(),
+            "--viewpoint",
+            "in.bcfv",
+            "--walk",
+            "--no-overlay",
+            "--save-viewpoint",
+            "out.bcfv",
+            "--exit-when-complete",
+            "--screenshot",
+            "walk.png",
+        ],
+    );
+    let (so, se) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{se}");
+    assert!(format!("{so}{se}").contains("walk mode"), "{so}{se}");
+    let xml = std::fs::read_to_string(d.join("out.bcfv")).unwrap();
+    let doc = roxmltree::Document::parse(&xml).unwrap();
+    let cam = doc
+        .descendants()
+        .find(|n| n.has_tag_name("CameraViewPoint"))
+        .unwrap();
+    let z: f64 = cam
+        .children()
+        .find(|c| c.has_tag_name("Z"))
+        .unwrap()
+        .text()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let want = f64::from(place.y + 1.6) + origin[1];
+    assert!((z - want).abs() < 0.03, "eye at {z}, want {want}");
+    let img = RgbaImage::load_png(&d.join("walk.png")).unwrap();
+    std::fs::copy(
+        d.join("walk.png"),
+        artefacts().join("viewer-walk-fzk-haus.png"),
+    )
+    .unwrap();
+    assert!(
+        scene_coverage(&img) > 0.3,
+        "inside, the model fills the view"
+    );
+}

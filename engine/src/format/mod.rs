@@ -1,14 +1,17 @@
-//! The versioned on-disk scene format (version 3; versions 1 and 2 are still
+//! The versioned on-disk scene format (version 5; versions 1 to 4 are still
 //! read).
 //!
 //! ```text
-//! offset 0      FileHeader (192 B; 128 B in version 1), zero-padded to BLOCK
+//! offset 0      FileHeader (256 B; 192 B in versions 2-4, 128 B in version 1),
+//!               zero-padded to BLOCK
 //! BLOCK         rep payloads back to back: a mesh rep on the next REP_ALIGN
 //!               (16 B) boundary, a view-dependence tree on the next BLOCK
 //!               (versions 1 and 2: every rep on a BLOCK); zero-padded to BLOCK
 //! data end      skeleton: [NodeRecord; node_count] [RepRecord; rep_count]
 //! skeleton end  object section (version 2, may be empty): names and extras
 //!               of the source objects, for picking (see [`objects`])
+//! objects end   walk section (version 5, may be empty): solid space as
+//!               column spans, for walking (see [`walk`])
 //! ```
 //!
 //! The header carries the magic, the version, the section ranges, the world
@@ -26,6 +29,7 @@ mod codec;
 pub mod objects;
 mod reader;
 mod rep;
+pub mod walk;
 mod writer;
 
 pub use codec::{REPZ_MAGIC, expand_payload, is_compressed};

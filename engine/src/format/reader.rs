@@ -5,8 +5,10 @@ use std::path::Path;
 use std::sync::Arc;
 
 use super::objects::ObjectTable;
+use super::walk::{Chunk, ChunkRecord, WalkIndex};
 use super::{
-    BLOCK, FileHeader, FileHeaderV1, FormatError, MAGIC, NodeRecord, RepMesh, RepRecord, VERSION,
+    BLOCK, FileHeader, FileHeaderV1, FileHeaderV2, FormatError, MAGIC, NodeRecord, RepMesh,
+    RepRecord, VERSION,
 };
 use crate::io::{ByteSource, FileSource, MemSource};
 use crate::skeleton::{RepId, Skeleton};
@@ -132,6 +134,68 @@ impl<S: ByteSource> SceneFile<S> {
     /// rep belongs to. Loaded on demand (for picking), checked.
     pub fn read_objects(&self) -> Result<ObjectTable, FormatError> {
         ObjectTable::decode(&self.read_objects_bytes()?, &self.skeleton)
+    }
+
+    /// The walk section's header and index, checked against the header's
+    /// CRC; `None` when the file has none (built before version 5).
+    pub fn read_walk_index(&self) -> Result<Option<WalkIndex>, FormatError> {
+        let h = &self.header;
+        if h.walk_len == 0 {
+            return Ok(None);
+        }
+        let mut head = vec![0u8; size_of::<super::walk::WalkHeader>().min(h.walk_len as usize)];
+        self.source.read_at(h.walk_offset, &mut head)?;
+        let count = if head.len() >= 12 {
+            u32::from_le_bytes(head[8..12].try_into().expect("4 bytes"))
+        } else {
+            0
+        };
+        let index_len = WalkIndex::index_len(count).min(h.walk_len);
+        let mut buf = crate::limits::alloc_bytes(index_len, "the walk index")
+            .map_err(|e| FormatError::TooLargeForMachine(e.to_string()))?;
+        self.source.read_at(h.walk_offset, &mut buf)?;
+        let computed = crc32fast::hash(&buf);
+        if computed != h.walk_crc {
+            return Err(FormatError::Checksum {
+                what: "walk section index".into(),
+                stored: h.walk_crc,
+                computed,
+            });
+        }
+        WalkIndex::decode(&buf, h.walk_len).map(Some)
+    }
+
+    /// One chunk of the walk section, read, checked against its CRC and
+    /// decoded.
+    pub fn read_walk_chunk(&self, rec: &ChunkRecord) -> Result<Chunk, FormatError> {
+        let mut buf = vec![0u8; rec.len as usize];
+        self.source
+            .read_at(self.header.walk_offset + rec.offset, &mut buf)?;
+        let computed = crc32fast::hash(&buf);
+        if computed != rec.crc {
+            return Err(FormatError::Checksum {
+                what: format!("walk chunk ({}, {})", rec.x, rec.z),
+                stored: rec.crc,
+                computed,
+            });
+        }
+        Chunk::decode(&buf)
+            .map_err(|e| FormatError::BadHeader(format!("walk chunk ({}, {}): {e}", rec.x, rec.z)))
+    }
+
+    /// The whole walk section (empty when absent), every chunk checked:
+    /// what a rewrite of the file copies.
+    pub fn read_walk_bytes(&self) -> Result<Vec<u8>, FormatError> {
+        let Some(index) = self.read_walk_index()? else {
+            return Ok(Vec::new());
+        };
+        for rec in &index.chunks {
+            self.read_walk_chunk(rec)?;
+        }
+        let mut buf = crate::limits::alloc_bytes(self.header.walk_len, "the walk section")
+            .map_err(|e| FormatError::TooLargeForMachine(e.to_string()))?;
+        self.source.read_at(self.header.walk_offset, &mut buf)?;
+        Ok(buf)
     }
 
     /// The byte source reps are read from.
@@ -383,22 +447,8 @@ fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
             }
             v1.upgrade()
         }
-        2..=VERSION => {
-            let hsize = size_of::<FileHeader>();
-            if have < hsize as u64 {
-                return Err(truncated(hsize as u64));
-            }
-            let mut buf = vec![0u8; hsize];
-            source.read_at(0, &mut buf)?;
-            let h: FileHeader = bytemuck::pod_read_unaligned(&buf);
-            let mut zeroed = h;
-            zeroed.header_crc = 0;
-            check_header_crc(h.header_crc, bytemuck::bytes_of(&zeroed))?;
-            if h.header_size as usize != hsize {
-                return Err(FormatError::BadHeader("header size".into()));
-            }
-            h
-        }
+        2..=4 => read_sized::<FileHeaderV2>(source, have)?.upgrade(),
+        VERSION => read_sized::<FileHeader>(source, have)?,
         found => return Err(FormatError::UnsupportedVersion { found }),
     };
     let bad = |s: &str| Err(FormatError::BadHeader(s.to_string()));
@@ -416,7 +466,8 @@ fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
         || !header.skeleton_offset.is_multiple_of(BLOCK)
         || header.skeleton_len != records
         || header.skeleton_offset.checked_add(header.skeleton_len) != Some(header.objects_offset)
-        || header.objects_offset.checked_add(header.objects_len) != Some(header.file_len)
+        || header.objects_offset.checked_add(header.objects_len) != Some(header.walk_offset)
+        || header.walk_offset.checked_add(header.walk_len) != Some(header.file_len)
     {
         return bad("section ranges are inconsistent");
     }
@@ -428,6 +479,54 @@ fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
     }
     Ok(header)
 }
+
+/// A header of type `H` (its CRC and `header_size` checked).
+fn read_sized<H: HeaderLike>(source: &impl ByteSource, have: u64) -> Result<H, FormatError> {
+    let hsize = size_of::<H>();
+    if have < hsize as u64 {
+        return Err(FormatError::Truncated {
+            what: "header",
+            need: hsize as u64,
+            have,
+        });
+    }
+    let mut buf = vec![0u8; hsize];
+    source.read_at(0, &mut buf)?;
+    let h: H = bytemuck::pod_read_unaligned(&buf);
+    check_header_crc(h.crc(), bytemuck::bytes_of(&h.without_crc()))?;
+    if h.size() as usize != hsize {
+        return Err(FormatError::BadHeader("header size".into()));
+    }
+    Ok(h)
+}
+
+/// The fields [`read_sized`] checks.
+trait HeaderLike: bytemuck::Pod {
+    fn crc(&self) -> u32;
+    fn size(&self) -> u32;
+    fn without_crc(&self) -> Self;
+}
+
+macro_rules! header_like {
+    ($t:ty) => {
+        impl HeaderLike for $t {
+            fn crc(&self) -> u32 {
+                self.header_crc
+            }
+            fn size(&self) -> u32 {
+                self.header_size
+            }
+            fn without_crc(&self) -> Self {
+                Self {
+                    header_crc: 0,
+                    ..*self
+                }
+            }
+        }
+    };
+}
+header_like!(FileHeader);
+header_like!(FileHeaderV2);
 
 fn check_header_crc(stored: u32, zeroed: &[u8]) -> Result<(), FormatError> {
     let computed = crc32fast::hash(zeroed);

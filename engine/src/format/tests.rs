@@ -42,7 +42,7 @@ fn version_2_files_with_block_aligned_reps_still_read() {
         v2.extend_from_slice(&buf);
         v2.resize(v2.len().next_multiple_of(BLOCK as usize), 0);
     }
-    let mut h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..192]);
+    let mut h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..256]);
     let skel: Vec<u8> = [
         bytemuck::cast_slice::<_, u8>(&moved.nodes),
         bytemuck::cast_slice(&moved.reps),
@@ -56,8 +56,9 @@ fn version_2_files_with_block_aligned_reps_still_read() {
     h.objects_offset = v2.len() as u64;
     v2.extend_from_slice(&bytes[bytes.len() - h.objects_len as usize..]);
     h.file_len = v2.len() as u64;
-    h.header_crc = 0;
+    let mut h = downgrade(&h, 2);
     h.header_crc = crc32fast::hash(bytemuck::bytes_of(&h));
+    v2[..256].fill(0);
     v2[..192].copy_from_slice(bytemuck::bytes_of(&h));
     let old = SceneFile::from_source(MemSource::new(v2)).unwrap();
     assert_eq!(old.skeleton(), &moved);
@@ -99,8 +100,8 @@ fn every_truncation_is_a_typed_error() {
 #[test]
 fn every_bit_flip_in_header_and_skeleton_is_detected() {
     let (bytes, _) = build(&[1, 2, 1], &[2, 0, 0]);
-    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..192]);
-    let positions = (0..192usize).chain(h.skeleton_offset as usize..bytes.len());
+    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..256]);
+    let positions = (0..256usize).chain(h.skeleton_offset as usize..bytes.len());
     for pos in positions {
         let mut b = bytes.clone();
         b[pos] ^= 0x10;
@@ -169,7 +170,7 @@ proptest! {
         edits in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 1..6),
     ) {
         let (mut bytes, _) = build(&[1, 2, 3, 1], &[3, 0, 0, 0]);
-        let mut h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..192]);
+        let mut h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..256]);
         let (start, end) = (h.skeleton_offset as usize, bytes.len());
         for (at, v) in edits {
             bytes[start + at.index(end - start)] = v;
@@ -177,7 +178,7 @@ proptest! {
         h.skeleton_crc = crc32fast::hash(&bytes[start..end]);
         h.header_crc = 0;
         h.header_crc = crc32fast::hash(bytemuck::bytes_of(&h));
-        bytes[..192].copy_from_slice(bytemuck::bytes_of(&h));
+        bytes[..256].copy_from_slice(bytemuck::bytes_of(&h));
         let result = std::panic::catch_unwind(|| {
             if let Ok(scene) = SceneFile::from_source(MemSource::new(bytes)) {
                 let s = scene.skeleton();
@@ -193,7 +194,7 @@ proptest! {
 
 /// A version-1 file: the same scene with the 128-byte header.
 fn as_version_1(bytes: &[u8]) -> Vec<u8> {
-    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..192]);
+    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..256]);
     assert_eq!(h.objects_len, 0);
     let mut v1 = FileHeaderV1 {
         magic: h.magic,
@@ -217,9 +218,91 @@ fn as_version_1(bytes: &[u8]) -> Vec<u8> {
     };
     v1.header_crc = crc32fast::hash(bytemuck::bytes_of(&v1));
     let mut out = bytes.to_vec();
-    out[..192].fill(0);
+    out[..256].fill(0);
     out[..128].copy_from_slice(bytemuck::bytes_of(&v1));
     out
+}
+
+/// `h` as a header of versions 2 to 4 (CRC zero).
+fn downgrade(h: &FileHeader, version: u32) -> FileHeaderV2 {
+    FileHeaderV2 {
+        magic: h.magic,
+        version,
+        header_size: 192,
+        node_count: h.node_count,
+        rep_count: h.rep_count,
+        object_count: h.object_count,
+        flags: h.flags,
+        input_triangles: h.input_triangles,
+        data_offset: h.data_offset,
+        data_len: h.data_len,
+        skeleton_offset: h.skeleton_offset,
+        skeleton_len: h.skeleton_len,
+        file_len: h.file_len,
+        bounds_min: h.bounds_min,
+        bounds_max: h.bounds_max,
+        skeleton_crc: h.skeleton_crc,
+        header_crc: 0,
+        origin: h.origin,
+        objects_offset: h.objects_offset,
+        objects_len: h.objects_len,
+        objects_crc: h.objects_crc,
+        source_key: h.source_key,
+        drawn_triangles: h.drawn_triangles,
+        hidden_triangles: h.hidden_triangles,
+        reserved: [0; 1],
+    }
+}
+
+/// A version-4 file: the same scene with the 192-byte header (no walk section).
+fn as_version_4(bytes: &[u8]) -> Vec<u8> {
+    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..256]);
+    assert_eq!(h.walk_len, 0);
+    let mut v2 = downgrade(&h, 4);
+    v2.header_crc = crc32fast::hash(bytemuck::bytes_of(&v2));
+    let mut out = bytes.to_vec();
+    out[..256].fill(0);
+    out[..192].copy_from_slice(bytemuck::bytes_of(&v2));
+    out
+}
+
+#[test]
+fn version_4_files_are_still_read_without_a_walk_section() {
+    let (bytes, skeleton) = build(&[1, 2, 3], &[2, 0, 0]);
+    let scene = SceneFile::from_source(MemSource::new(as_version_4(&bytes))).unwrap();
+    assert_eq!(scene.skeleton(), &skeleton);
+    assert_eq!(scene.header().version, 4);
+    assert!(scene.read_walk_index().unwrap().is_none());
+    scene.verify_all_reps().unwrap();
+}
+
+#[test]
+fn the_walk_section_round_trips_and_a_damaged_chunk_is_named() {
+    use crate::format::walk::{CHUNK_AREA, Chunk, LAYERS, Span, WalkIndex};
+    let (bytes, skeleton) = build(&[1, 2], &[1, 0]);
+    let plain = SceneFile::from_source(MemSource::new(bytes)).unwrap();
+    let mut cols = vec![Vec::new(); LAYERS * CHUNK_AREA];
+    cols[7] = vec![Span { lo: 1, hi: 3 }];
+    let walk = WalkIndex::encode(0.1, 0.02, 0.0, &[((2, -1), Chunk::encode(&cols))]);
+    let mut data = vec![0u8; (plain.header().skeleton_offset - BLOCK) as usize];
+    plain.source().read_at(BLOCK, &mut data).unwrap();
+    let mut w = SceneWriter::new(std::io::Cursor::new(Vec::new())).unwrap();
+    w.write_rep(&data).unwrap();
+    let out = w
+        .finish_with_sections(&skeleton, &plain.meta(), &[], &walk)
+        .unwrap()
+        .into_inner();
+    let scene = SceneFile::from_source(MemSource::new(out.clone())).unwrap();
+    let index = scene.read_walk_index().unwrap().unwrap();
+    let chunk = scene.read_walk_chunk(index.find(2, -1).unwrap()).unwrap();
+    assert_eq!(chunk.column(7, 0).solid, &[Span { lo: 1, hi: 3 }]);
+    assert_eq!(scene.read_walk_bytes().unwrap(), walk);
+    let mut bad = out;
+    let last = bad.len() - 3;
+    bad[last] ^= 0xff;
+    let scene = SceneFile::from_source(MemSource::new(bad)).unwrap();
+    let e = scene.read_walk_bytes().unwrap_err().to_string();
+    assert!(e.contains("walk chunk (2, -1)"), "{e}");
 }
 
 #[test]
@@ -278,7 +361,7 @@ fn origin_and_object_section_round_trip_and_are_checked() {
     assert_eq!(t2.object_at(&merged, leaf, 4), Some(0));
     assert_eq!(t2.object_at(&merged, leaf, 5), None);
     // Any flipped bit of the section is caught by its checksum.
-    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..192]);
+    let h: FileHeader = bytemuck::pod_read_unaligned(&bytes[..256]);
     for pos in h.objects_offset as usize..bytes.len() {
         let mut b = bytes.clone();
         b[pos] ^= 0x04;

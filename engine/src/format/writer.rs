@@ -81,10 +81,23 @@ impl<W: Write + Seek> SceneWriter<W> {
     /// [`SceneWriter::finish`] with an object section
     /// ([`ObjectTable::encode`](super::objects::ObjectTable::encode)) after the skeleton.
     pub fn finish_with_objects(
+        self,
+        skeleton: &Skeleton,
+        meta: &SceneMeta,
+        objects: &[u8],
+    ) -> Result<W, FormatError> {
+        self.finish_with_sections(skeleton, meta, objects, &[])
+    }
+
+    /// [`SceneWriter::finish_with_objects`] with a walk section
+    /// ([`WalkIndex::encode`](super::walk::WalkIndex::encode); empty for
+    /// none) after the object section.
+    pub fn finish_with_sections(
         mut self,
         skeleton: &Skeleton,
         meta: &SceneMeta,
         objects: &[u8],
+        walk: &[u8],
     ) -> Result<W, FormatError> {
         if !meta.origin.iter().all(|c| c.is_finite()) {
             return Err(FormatError::BadHeader("origin is not finite".into()));
@@ -103,7 +116,16 @@ impl<W: Write + Seek> SceneWriter<W> {
         self.out.write_all(rep_bytes)?;
         let skeleton_len = (node_bytes.len() + rep_bytes.len()) as u64;
         self.out.write_all(objects)?;
+        self.out.write_all(walk)?;
         let objects_offset = self.pos + skeleton_len;
+        let walk_offset = objects_offset + objects.len() as u64;
+        let walk_crc = if walk.is_empty() {
+            0
+        } else {
+            let index = super::walk::WalkIndex::decode(walk, walk.len() as u64)?;
+            let index_len = super::walk::WalkIndex::index_len(index.header.chunk_count);
+            crc32fast::hash(&walk[..index_len as usize])
+        };
         let root = &skeleton.nodes[0];
         let mut header = FileHeader {
             magic: MAGIC,
@@ -118,7 +140,7 @@ impl<W: Write + Seek> SceneWriter<W> {
             data_len: self.pos - BLOCK,
             skeleton_offset: self.pos,
             skeleton_len,
-            file_len: objects_offset + objects.len() as u64,
+            file_len: walk_offset + walk.len() as u64,
             bounds_min: root.bbox_min,
             bounds_max: root.bbox_max,
             skeleton_crc: crc.finalize(),
@@ -130,7 +152,10 @@ impl<W: Write + Seek> SceneWriter<W> {
             source_key: meta.source_key,
             drawn_triangles: crate::records::split_u64(meta.drawn_triangles),
             hidden_triangles: crate::records::split_u64(meta.hidden_triangles),
-            reserved: [0; 1],
+            walk_crc,
+            walk_offset,
+            walk_len: walk.len() as u64,
+            reserved: [0; 6],
         };
         header.header_crc = crc32fast::hash(bytemuck::bytes_of(&header));
         self.out.seek(SeekFrom::Start(0))?;

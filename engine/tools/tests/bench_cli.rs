@@ -321,6 +321,7 @@ fn lying_header(d: &Path, nodes: u32) -> std::path::PathBuf {
     h.objects_offset = h.skeleton_offset + h.skeleton_len;
     h.objects_len = 0;
     h.file_len = h.objects_offset;
+    (h.walk_offset, h.walk_len, h.walk_crc) = (h.file_len, 0, 0);
     h.header_crc = 0;
     h.header_crc = crc32fast::hash(bytemuck::bytes_of(&h));
     bytes[..H].copy_from_slice(bytemuck::bytes_of(&h));
@@ -545,4 +546,62 @@ fn walks_a_scene_served_over_http() {
         "{}",
         String::from_utf8_lossy(&down.stderr)
     );
+}
+
+/// Walk mode with 2% of the Duplex resident: the walker follows the
+/// generated interior walk through the scene's walk section while P_I
+/// streams the reps; no frame's resident bytes pass the footprint, and
+/// the walk is the same without and with prefetching (collision reads no
+/// rep).
+#[test]
+fn the_duplex_is_walked_with_two_percent_resident() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = e2e_tests::data_dir().join("Ifc2x3_Duplex_Architecture.glb");
+    hlod_builder::build::build_file(&model, &d.join("duplex.hlod"), &Default::default(), false)
+        .unwrap();
+    let out = bench(
+        d,
+        &[
+            "duplex.hlod",
+            "--path-kind",
+            "interior",
+            "--walk",
+            "--frames",
+            "240",
+            "--fps",
+            "0",
+            "--budget",
+            "2%",
+            "--modes",
+            "nopre,pre",
+            "--out",
+            "o",
+        ],
+    );
+    let so = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(so.contains("walk: 240 frames walked"), "{so}");
+    for mode in ["nopre", "pre"] {
+        let csv = std::fs::read_to_string(d.join("o").join(format!("{mode}.csv"))).unwrap();
+        let mut lines = csv.lines();
+        let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = |n: &str| head.iter().position(|h| *h == n).unwrap();
+        let (r, b) = (col("resident_bytes"), col("budget_bytes"));
+        let mut frames = 0;
+        for l in lines {
+            let f: Vec<&str> = l.split(',').collect();
+            let (res, bud): (u64, u64) = (f[r].parse().unwrap(), f[b].parse().unwrap());
+            assert!(res <= bud, "{mode}: {res} > {bud}");
+            frames += 1;
+        }
+        assert_eq!(frames, 240, "{mode}");
+    }
+    // The walked path is written once and used by both modes.
+    let path = std::fs::read_to_string(d.join("o/path.txt")).unwrap();
+    assert!(path.lines().filter(|l| !l.starts_with('#')).count() >= 240);
 }

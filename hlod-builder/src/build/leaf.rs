@@ -141,7 +141,7 @@ pub(super) fn leaf_levels<'a>(
     )
 }
 
-pub(super) fn transformed_bounds(b: Aabb, m: &Mat4) -> Aabb {
+pub(crate) fn transformed_bounds(b: Aabb, m: &Mat4) -> Aabb {
     let mut out = Aabb::EMPTY;
     for p in b.corners() {
         out.add(m.transform_point3(p));

@@ -582,13 +582,14 @@ pub fn merge_files(
     sources.push(FileSource::from_file(staging).map_err(|e| write_err(e.into()))?);
     let skeleton = super::skeleton_of(nodes, node_reps);
     let (meta, objects) = super::scene_tail(&opened.scene, &stats, &leaf_runs);
+    let walk = super::walk_tail(&opened, params, opts, &mut stats).map_err(write_err)?;
     let file = out.file().try_clone().map_err(|e| write_err(e.into()))?;
     let mut sink = crate::layout::relayout_parts(
         &skeleton,
         &node_source,
         &sources,
         &meta,
-        &objects,
+        (&objects, &walk),
         BufWriter::with_capacity(1 << 20, file),
     )
     .map_err(write_err)?;

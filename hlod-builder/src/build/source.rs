@@ -80,6 +80,18 @@ fn chunks_of<S: SceneSource>(
     Ok(world_mesh(src, o)?.split_spatial(params.chunk_tris))
 }
 
+/// Whether the finest reps draw `inst`: IFC voids and spaces are left out
+/// (unless `--ifc-voids`, or unless they are all the scene has).
+pub(crate) fn drawn(
+    scene: &Imported,
+    params: &BuildParams,
+) -> impl Fn(&crate::import::Instance) -> bool + Sync {
+    let hide =
+        move |i: &crate::import::Instance| !params.ifc_voids && crate::import::ifc_void(&i.name);
+    let hide_any = scene.instances.iter().any(|i| !hide(i));
+    move |i| !(hide_any && hide(i))
+}
+
 /// Items from every object: an instance of its mesh, chunks of a large
 /// one, or a large one whose finest rep is a tree or an MT. Only split and
 /// tree objects are loaded (one at a time), for their exact world boxes.
@@ -97,12 +109,11 @@ pub(super) fn make_items<S: SceneSource>(
     };
     // IFC voids and spaces are left out (they stay in the object section,
     // with no geometry), unless they are all the scene has.
-    let hide = |i: &crate::import::Instance| !params.ifc_voids && crate::import::ifc_void(&i.name);
-    let hide_any = scene.instances.iter().any(|i| !hide(i));
+    let draws = drawn(scene, params);
     for (obj, inst) in scene.instances.iter().enumerate() {
         let object = obj as u32;
         let meta = scene.meta[inst.mesh].expect("instances refer to usable meshes");
-        if hide_any && hide(inst) {
+        if !draws(inst) {
             out.hidden_objects += 1;
             out.hidden_triangles += meta.tris as u64;
             continue;

@@ -1,5 +1,6 @@
 //! The scene-file reader: header, skeleton, `validate()`, every rep
-//! decoded, the object section, and a pick through the scene. Inputs of
+//! decoded, the object section, a pick through the scene, and a walk
+//! across the walk section. Inputs of
 //! even length get their header, skeleton and object-section CRCs
 //! recomputed first (version 2), so that mutations reach the checks behind
 //! the checksums.
@@ -24,5 +25,26 @@ fuzz_target!(|data: &[u8]| {
                 let _ = objects.info(k);
             }
         }
+        let _ = scene.read_walk_bytes();
+        let source = scene.source().clone();
+        if let Ok(Some(mut map)) = engine::walk::WalkMap::open(&scene, source, 1 << 16) {
+            walk_across(&scene, &mut map);
+        }
     }
 });
+
+/// A walker dropped at the scene's centre walks across it.
+fn walk_across(scene: &SceneFile<MemSource>, map: &mut engine::walk::WalkMap<MemSource>) {
+    let root = &scene.skeleton().nodes[0];
+    let (lo, hi) = (glam::Vec3::from(root.bbox_min), glam::Vec3::from(root.bbox_max));
+    let body = engine::walk::Body::default();
+    let Ok(mut w) = engine::walk::Walker::from_eye(body, map, (lo + hi) * 0.5) else {
+        return;
+    };
+    let d = glam::Vec2::new(hi.x - lo.x, hi.z - lo.z).clamp_length_max(20.0) / 60.0;
+    for _ in 0..60 {
+        if w.step(map, d, 1.0 / 30.0).is_err() {
+            return;
+        }
+    }
+}

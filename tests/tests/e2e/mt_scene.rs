@@ -99,7 +99,11 @@ fn walk(
 fn the_builder_gives_a_large_object_an_mt_rep() {
     let bytes = scene();
     let scene = SceneFile::from_source(MemSource::new(bytes.clone())).unwrap();
-    assert_eq!(scene.header().version, 4);
+    assert_eq!(
+        scene.header().version,
+        engine::format::VERSION,
+        "MT reps need version 4 or later"
+    );
     let s = scene.skeleton();
     let t = mt_rep(s);
     let rec = s.reps[t as usize];

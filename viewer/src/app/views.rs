@@ -33,9 +33,13 @@ pub(super) struct Measuring {
 impl App {
     /// What follows a scene's opening: `--viewpoint`, then `--find`.
     pub(super) fn after_open(&mut self) {
+        self.walking = None;
         self.apply_viewpoint();
         if let Some(t) = self.args.find.clone() {
             self.find(&t);
+        }
+        if self.args.walk {
+            self.toggle_walk();
         }
     }
 

@@ -158,6 +158,11 @@ pub struct Args {
     /// elements leave the front and are not fetched.
     #[arg(long, value_name = "TEXT")]
     pub hide: Vec<String>,
+    /// Walk the path instead of flying it: each frame a walker (eye at
+    /// 1.6 m, gravity, doors open) steers towards the path's position and
+    /// collides with the scene's walk section; prints what walking costs.
+    #[arg(long)]
+    pub walk: bool,
     /// The quality governor: raise ε for the whole frame when the front
     /// does not fit the footprint (or --max-tris), instead of substituting.
     #[arg(long)]

@@ -12,6 +12,7 @@ mod oracle;
 mod plots;
 mod raster;
 mod short;
+mod walking;
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -180,6 +181,11 @@ fn run(a: Args) -> Result<()> {
             };
             generate_path(kind, min, max, a.frames)
         }
+    };
+    let poses = if a.walk {
+        walking::walked(handle.raw()?, &scene_name, &poses, f64::from(a.fps))?
+    } else {
+        poses
     };
     std::fs::create_dir_all(&a.out).with_context(|| a.out.display().to_string())?;
     write_bytes(&a.out.join("path.txt"), format_path(&poses).as_bytes())?;

@@ -1,0 +1,87 @@
+//! `--walk`: the path walked by a person instead of flown. Each frame the
+//! walker steers towards the path's position (at most twice the path's
+//! speed), collides with the scene's walk section and falls under gravity;
+//! the frame is drawn from its eye with the path's orientation. What walking
+//! costs is printed: the walker's time per frame and the bytes its walk map
+//! holds, beside the footprint (they are not part of it).
+
+use anyhow::{Context, Result, bail};
+use engine::camera::Pose;
+use engine::walk::{Body, WalkMap, Walker};
+use engine::{ByteSource, SceneFile};
+use glam::Vec2;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The poses of `path` as walked through `source`'s walk section, `fps`
+/// frames a second.
+pub fn walked(
+    source: Arc<dyn ByteSource>,
+    name: &str,
+    path: &[Pose],
+    fps: f64,
+) -> Result<Vec<Pose>> {
+    let scene = SceneFile::from_source(source.clone()).with_context(|| name.to_string())?;
+    let Some(mut map) = WalkMap::open(&scene, source, engine::walk::DEFAULT_CAP)
+        .with_context(|| name.to_string())?
+    else {
+        bail!(
+            "{name}: --walk: the scene has no walk section (built before format version 5, or with --walk-cell 0): rebuild it"
+        );
+    };
+    let Some(first) = path.first() else {
+        return Ok(Vec::new());
+    };
+    let dt = if fps > 0.0 {
+        (1.0 / fps) as f32
+    } else {
+        1.0 / 30.0
+    };
+    let body = Body {
+        doors_open: true,
+        ..Body::default()
+    };
+    let mut w = Walker::from_eye(body, &mut map, first.position)?;
+    let (mut times, mut held, mut blocked, mut off) = (Vec::new(), 0, 0u32, 0.0f64);
+    let mut out = Vec::with_capacity(path.len());
+    for (k, p) in path.iter().enumerate() {
+        if k > 0 {
+            let speed = (p.position - path[k - 1].position).length().max(0.02);
+            let to = p.position - w.eye();
+            let wish = Vec2::new(to.x, to.z).clamp_length_max(2.0 * speed);
+            let t0 = Instant::now();
+            let m = w
+                .step(&mut map, wish, dt)
+                .with_context(|| format!("{name}: frame {k}"))?;
+            times.push(t0.elapsed().as_secs_f64() * 1e6);
+            blocked += u32::from(m.blocked);
+            held = held.max(map.resident_bytes());
+        }
+        off += f64::from((w.eye() - p.position).length());
+        out.push(Pose {
+            position: w.eye(),
+            ..*p
+        });
+    }
+    times.sort_by(f64::total_cmp);
+    let at = |q: f64| {
+        times
+            .get(((times.len() as f64 - 1.0) * q).round() as usize)
+            .copied()
+            .unwrap_or(0.0)
+    };
+    println!(
+        "walk: {} frames walked (doors open); step {:.1} us median, {:.1} us p99; {} frames blocked by \
+         solid; eye {:.2} m from the path on average; walk map held at most {} B (index {} B, {} chunk reads), \
+         not counted in the footprint",
+        out.len(),
+        at(0.5),
+        at(0.99),
+        blocked,
+        off / out.len() as f64,
+        held,
+        map.index_bytes(),
+        map.reads
+    );
+    Ok(out)
+}
