@@ -8,7 +8,8 @@
 # bytes and substituted frames. Same path, same ε (2 px), same footprint (5%, `ssd`), `none`
 # renderer. The scenes are built as scripts/anatomy.sh builds them (in out/scenes/).
 # Table: out/section/summary.md. About 15 minutes on 2 cores.
-# VARIANTS="none walk" walks the paths instead (hlod-bench --walk): the walker's cost per frame
+# SCENES and KINDS choose among the scenes and path kinds (interior, flythrough, walk: a walk
+# generated on the walk section). VARIANTS="none walk" walks the paths instead (hlod-bench --walk): the walker's cost per frame
 # and its walk map's bytes go to out/section/walk-lines.txt.
 # Usage: [VARIANTS="none storey hide:TEXT walk …"] scripts/bench-section.sh [TOP] [SEEDS] [FRAMES] [BUDGET]
 #   (defaults: VARIANTS="none storey", 2.5 1,2 600 5%; tables to out/section/summary.md, or
@@ -25,7 +26,7 @@ mkdir -p "$dir" "$out"
 cargo build --release -p hlod-builder -p engine-tools
 B=target/release
 tiled() { # name source (rebuilt when it has no walk section: built before format version 5)
-  if [ ! -s "$dir/$1.hlod" ] || $B/hlod-build info "$dir/$1.hlod" | grep -q "walk section: none"; then
+  if [ ! -s "$dir/$1.hlod" ] || $B/hlod-build info "$dir/$1.hlod" | grep "walk section: none" > /dev/null; then
     $B/hlod-build gen tile "../shared/data/$2.glb" --grid 10x10 --baked -o "$dir/$1.glb"
     $B/hlod-build build -q "$dir/$1.glb" -o "$dir/$1.hlod"
     rm -f "$dir/$1.glb"
@@ -52,12 +53,12 @@ case "$variants" in *hide:*) summary="$out/summary-hide.md" ;; *walk*) summary="
   echo "|---|---|---:|---|---:|---:|---:|---:|---:|---:|"
 } > "$summary"
 IFS=, read -ra seed_list <<< "$seeds"
-for scene in schep10 duplex10; do
+for scene in ${SCENES:-schep10 duplex10}; do
   read -r x0 y0 z0 x1 _ z1 < <($B/hlod-build info "$dir/$scene.hlod" |
     sed -n 's/.*bounds \[\(.*\)\] \.\. \[\(.*\)\], root.*/\1 \2/p' | tr -d ',')
   box="$(awk -v a="$x0" -v b="$y0" -v c="$z0" -v d="$x1" -v t="$top" -v f="$z1" \
     'BEGIN { printf "%g,%g,%g,%g,%g,%g", a - 1, b - 1, c - 1, d + 1, t, f + 1 }')"
-  for kind in interior flythrough; do
+  for kind in ${KINDS:-interior flythrough}; do
     for seed in "${seed_list[@]}"; do
       for cut in $variants; do
         o="$out/$scene-$kind-s$seed-${cut/:/-}"

@@ -26,10 +26,12 @@ pub use crate::format::walk::{Column, Span};
 mod grid;
 mod map;
 mod reach;
+mod tour;
 
-pub use grid::{Layer, SpanGrid};
+pub use grid::{Layer, Payload, SpanGrid};
 pub use map::{DEFAULT_CAP, WalkMap};
 pub use reach::{Fall, Place, Reach};
+pub use tour::{MAX_PLACES, STARTS_TRIED, Tour, TourError, tour};
 
 /// How spans map to space.
 #[derive(Clone, Copy, Debug, PartialEq)]

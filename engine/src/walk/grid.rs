@@ -76,6 +76,27 @@ impl Pending {
     }
 }
 
+/// `s` less `v` (none, one or two spans).
+fn subtract(s: Span, v: Span) -> Vec<Span> {
+    if v.hi < s.lo || v.lo > s.hi {
+        return vec![s];
+    }
+    let mut out = Vec::new();
+    if s.lo < v.lo {
+        out.push(Span {
+            lo: s.lo,
+            hi: v.lo - 1,
+        });
+    }
+    if s.hi > v.hi {
+        out.push(Span {
+            lo: v.hi + 1,
+            hi: s.hi,
+        });
+    }
+    out
+}
+
 /// Cells of a chunk's columns holding solid or doors.
 fn occupied(cols: &[Vec<Span>]) -> usize {
     (0..CHUNK_AREA)
@@ -187,6 +208,14 @@ impl SpanGrid {
             self.insert(layer, x0, z0, g.span(lo.y, hi.y));
             return;
         }
+        // Only the rows of the band kept.
+        let (z0, z1) = match self.rows {
+            Some((r0, r1)) => {
+                let n = CHUNK_CELLS as i64;
+                (z0.max(i64::from(r0) * n), z1.min(i64::from(r1) * n - 1))
+            }
+            None => (z0, z1),
+        };
         let c = g.cell;
         let mut row = Vec::with_capacity(8);
         let mut cell = Vec::with_capacity(10);
@@ -222,6 +251,57 @@ impl SpanGrid {
             for (c, s) in p.spans {
                 mine.push(c, s);
             }
+        }
+    }
+
+    /// Each cell holding anything, with its solid layer's spans (any order).
+    pub fn solid_columns(&mut self) -> Vec<(i64, i64, Vec<Span>)> {
+        let n = CHUNK_CELLS as i64;
+        let mut out = Vec::new();
+        for (&(cx, cz), p) in &mut self.chunks {
+            for (c, col) in p.build_columns().into_iter().take(CHUNK_AREA).enumerate() {
+                if !col.is_empty() {
+                    let (i, j) = ((c % CHUNK_CELLS) as i64, (c / CHUNK_CELLS) as i64);
+                    out.push((i64::from(cx) * n + i, i64::from(cz) * n + j, col));
+                }
+            }
+        }
+        out
+    }
+
+    /// Removes `[s.lo, s.hi]` from the solid layer of each cell `(x, z)`
+    /// listed (an opening's void cut out of the wall around it).
+    pub fn carve(&mut self, cuts: &[(i64, i64, Span)]) {
+        let n = CHUNK_CELLS as i64;
+        let mut by_chunk: BTreeMap<(i32, i32), Vec<(u16, Span)>> = BTreeMap::new();
+        for &(x, z, s) in cuts {
+            let (Ok(cx), Ok(cz)) = (
+                i32::try_from(x.div_euclid(n)),
+                i32::try_from(z.div_euclid(n)),
+            ) else {
+                continue;
+            };
+            let cell = (z.rem_euclid(n) * n + x.rem_euclid(n)) as u16;
+            by_chunk.entry((cx, cz)).or_default().push((cell, s));
+        }
+        for (k, mut cut) in by_chunk {
+            let Some(p) = self.chunks.get_mut(&k) else {
+                continue;
+            };
+            cut.sort_unstable();
+            p.compact();
+            p.columns = None;
+            let mut out = Vec::with_capacity(p.spans.len());
+            for &(c, s) in &p.spans {
+                let mut left = vec![s];
+                let at = cut.partition_point(|x| x.0 < c);
+                for &(_, v) in cut[at..].iter().take_while(|x| x.0 == c) {
+                    left = left.into_iter().flat_map(|s| subtract(s, v)).collect();
+                }
+                out.extend(left.into_iter().map(|s| (c, s)));
+            }
+            p.spans = out;
+            p.merged = p.spans.len();
         }
     }
 

@@ -360,3 +360,44 @@ fn a_closed_door_is_a_wall_and_an_open_one_is_passed() {
     walk(&mut open, &mut g, Vec2::X, 4.0);
     assert!(open.feet().x > 3.0, "{}", open.feet());
 }
+
+#[test]
+fn an_opening_carved_out_of_a_wall_is_walked_through() {
+    let mut g = floor();
+    g.insert_box(Vec3::new(2.0, 0.0, -10.0), Vec3::new(2.2, 2.7, 10.0));
+    // The void of a 0.9 m × 2.1 m door opening, as its own grid's columns.
+    let mut void = grid();
+    void.insert_box(Vec3::new(1.95, 0.0, -0.45), Vec3::new(2.25, 2.1, 0.45));
+    let cuts: Vec<(i64, i64, Span)> = void
+        .solid_columns()
+        .into_iter()
+        .map(|(x, z, c)| {
+            (
+                x,
+                z,
+                Span {
+                    lo: c[0].lo + 1,
+                    hi: c[c.len() - 1].hi - 1,
+                },
+            )
+        })
+        .collect();
+    let mut w = standing(&mut g, 0.0, 0.0, 0.0);
+    walk(&mut w, &mut g, Vec2::X, 4.0);
+    assert!(w.feet().x < 2.0, "the wall before: {}", w.feet());
+    g.carve(&cuts);
+    let mut w = standing(&mut g, 0.0, 0.0, 0.0);
+    walk(&mut w, &mut g, Vec2::X, 4.0);
+    assert!(w.feet().x > 3.0, "through the opening: {}", w.feet());
+    // Beside the opening the wall stands, and above it the lintel.
+    let mut w = standing(&mut g, 0.0, 2.0, 0.0);
+    walk(&mut w, &mut g, Vec2::X, 4.0);
+    assert!(w.feet().x < 2.0, "{}", w.feet());
+    let lintel = g.column(20, 0).unwrap().solid.to_vec();
+    assert!(
+        lintel
+            .iter()
+            .any(|s| g.grid().height(s.hi) > 2.6 && g.grid().height(s.lo) > 2.0),
+        "{lintel:?}"
+    );
+}

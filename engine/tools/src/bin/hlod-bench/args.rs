@@ -20,8 +20,10 @@ pub struct Args {
     pub path: Option<PathBuf>,
     /// Generated path when no --path: flythrough, approach, orbit,
     /// approach-orbit, random (a hostile random walk with jumps, for soak
-    /// runs; see --seed) or interior (a walk at eye height through a
-    /// building's storeys and rooms, found from its geometry; see --seed).
+    /// runs; see --seed), interior (a walk at eye height through a
+    /// building's storeys and rooms, found from its geometry; see --seed)
+    /// or walk (an interior walk a walker walks on the scene's walk
+    /// section: never through geometry, every storey it reports reached).
     #[arg(long, default_value = "flythrough")]
     pub path_kind: String,
     /// Seed of the random path.

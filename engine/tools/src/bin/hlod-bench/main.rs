@@ -123,6 +123,13 @@ fn run(a: Args) -> Result<()> {
             path.storeys, path.cells, path.climbs, path.jumps
         );
         Some(path.poses)
+    } else if a.path.is_none() && a.path_kind == "walk" {
+        Some(walking::tour_path(
+            handle.raw()?,
+            &scene_name,
+            a.frames,
+            a.seed,
+        )?)
     } else {
         None
     };
@@ -176,7 +183,7 @@ fn run(a: Args) -> Result<()> {
                 "approach-orbit" => PathKind::ApproachOrbit,
                 "random" => PathKind::Random { seed: a.seed },
                 k => bail!(
-                    "--path-kind {k:?}: use flythrough, approach, orbit, approach-orbit, random or interior"
+                    "--path-kind {k:?}: use flythrough, approach, orbit, approach-orbit, random, interior or walk"
                 ),
             };
             generate_path(kind, min, max, a.frames)

@@ -13,6 +13,41 @@ use glam::Vec2;
 use std::sync::Arc;
 use std::time::Instant;
 
+/// `--path-kind walk`: an interior walk generated on the scene's walk
+/// section ([`engine::walk::tour`]): from a place indoors drawn with `seed`
+/// to a place on each storey in turn and back, at 1.2 m/s (30 frames a
+/// second), as a walker walks it.
+pub fn tour_path(
+    source: Arc<dyn ByteSource>,
+    name: &str,
+    frames: usize,
+    seed: u64,
+) -> Result<Vec<Pose>> {
+    let scene = SceneFile::from_source(source.clone()).with_context(|| name.to_string())?;
+    let Some(mut map) = WalkMap::open(&scene, source, engine::walk::DEFAULT_CAP)
+        .with_context(|| name.to_string())?
+    else {
+        bail!(
+            "{name}: --path-kind walk: the scene has no walk section (built before format version 5, or with --walk-cell 0): rebuild it"
+        );
+    };
+    let root = &scene.skeleton().nodes[0];
+    let (lo, hi) = (
+        Vec2::new(root.bbox_min[0], root.bbox_min[2]),
+        Vec2::new(root.bbox_max[0], root.bbox_max[2]),
+    );
+    let t0 = Instant::now();
+    let t = engine::walk::tour(&mut map, (lo, hi), frames, 0.04, seed)
+        .with_context(|| format!("{name}: --path-kind walk"))?;
+    println!(
+        "walk path: storeys at {:?}, {} places reachable, made in {:.1} s",
+        t.storeys,
+        t.places,
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(t.poses)
+}
+
 /// The poses of `path` as walked through `source`'s walk section, `fps`
 /// frames a second.
 pub fn walked(
