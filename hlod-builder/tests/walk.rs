@@ -28,7 +28,7 @@ fn built(name: &str) -> (Imported, SceneFile<MemSource>) {
 }
 
 fn walk_map(scene: &SceneFile<MemSource>) -> WalkMap<MemSource> {
-    WalkMap::open(scene, scene.source().clone(), engine::walk::DEFAULT_CAP)
+    WalkMap::open(scene.source().clone(), engine::walk::DEFAULT_CAP)
         .unwrap()
         .expect("the build writes a walk section")
 }

@@ -133,8 +133,7 @@ impl Session {
     pub fn walk_map(&self) -> Result<Option<engine::walk::WalkMap<Arc<dyn engine::ByteSource>>>> {
         let named = || self.path.display().to_string();
         let src = self.handle.raw().with_context(named)?;
-        let scene = SceneFile::from_source(src.clone()).with_context(named)?;
-        engine::walk::WalkMap::open(&scene, src, engine::walk::DEFAULT_CAP).with_context(named)
+        engine::walk::WalkMap::open(src, engine::walk::DEFAULT_CAP).with_context(named)
     }
 
     /// The scene's object section and GlobalIds (opened once).

@@ -438,7 +438,7 @@ fn walk_mode_stands_the_eye_on_the_floor() {
     hlod_builder::build::build_file(&fzk_haus(), &scene, &Default::default(), false).unwrap();
     let file = engine::SceneFile::open(&scene).unwrap();
     let origin = file.meta().origin;
-    let mut map = WalkMap::open(&file, engine::FileSource::open(&scene).unwrap(), 1 << 20)
+    let mut map = WalkMap::open(engine::FileSource::open(&scene).unwrap(), 1 << 20)
         .unwrap()
         .unwrap();
     // A free standing place on the ground floor with a ceiling above, and

@@ -33,7 +33,9 @@ pub mod walk;
 mod writer;
 
 pub use codec::{REPZ_MAGIC, expand_payload, is_compressed};
-pub use reader::{SceneFile, SceneMeta, check_rep_crc, check_vdt_record};
+pub use reader::{
+    SceneFile, SceneMeta, check_rep_crc, check_vdt_record, read_walk_chunk_at, walk_index_of,
+};
 pub use rep::{PackedVertex, REP_MAGIC, RepHeader, RepMesh, quantize_unit_normal};
 pub use writer::SceneWriter;
 

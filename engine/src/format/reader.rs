@@ -139,48 +139,13 @@ impl<S: ByteSource> SceneFile<S> {
     /// The walk section's header and index, checked against the header's
     /// CRC; `None` when the file has none (built before version 5).
     pub fn read_walk_index(&self) -> Result<Option<WalkIndex>, FormatError> {
-        let h = &self.header;
-        if h.walk_len == 0 {
-            return Ok(None);
-        }
-        let mut head = vec![0u8; size_of::<super::walk::WalkHeader>().min(h.walk_len as usize)];
-        self.source.read_at(h.walk_offset, &mut head)?;
-        let count = if head.len() >= 12 {
-            u32::from_le_bytes(head[8..12].try_into().expect("4 bytes"))
-        } else {
-            0
-        };
-        let index_len = WalkIndex::index_len(count).min(h.walk_len);
-        let mut buf = crate::limits::alloc_bytes(index_len, "the walk index")
-            .map_err(|e| FormatError::TooLargeForMachine(e.to_string()))?;
-        self.source.read_at(h.walk_offset, &mut buf)?;
-        let computed = crc32fast::hash(&buf);
-        if computed != h.walk_crc {
-            return Err(FormatError::Checksum {
-                what: "walk section index".into(),
-                stored: h.walk_crc,
-                computed,
-            });
-        }
-        WalkIndex::decode(&buf, h.walk_len).map(Some)
+        walk_index(&self.source, &self.header)
     }
 
     /// One chunk of the walk section, read, checked against its CRC and
     /// decoded.
     pub fn read_walk_chunk(&self, rec: &ChunkRecord) -> Result<Chunk, FormatError> {
-        let mut buf = vec![0u8; rec.len as usize];
-        self.source
-            .read_at(self.header.walk_offset + rec.offset, &mut buf)?;
-        let computed = crc32fast::hash(&buf);
-        if computed != rec.crc {
-            return Err(FormatError::Checksum {
-                what: format!("walk chunk ({}, {})", rec.x, rec.z),
-                stored: rec.crc,
-                computed,
-            });
-        }
-        Chunk::decode(&buf)
-            .map_err(|e| FormatError::BadHeader(format!("walk chunk ({}, {}): {e}", rec.x, rec.z)))
+        read_walk_chunk_at(&self.source, self.header.walk_offset, rec)
     }
 
     /// The whole walk section (empty when absent), every chunk checked:
@@ -189,12 +154,13 @@ impl<S: ByteSource> SceneFile<S> {
         let Some(index) = self.read_walk_index()? else {
             return Ok(Vec::new());
         };
-        for rec in &index.chunks {
-            self.read_walk_chunk(rec)?;
-        }
         let mut buf = crate::limits::alloc_bytes(self.header.walk_len, "the walk section")
             .map_err(|e| FormatError::TooLargeForMachine(e.to_string()))?;
         self.source.read_at(self.header.walk_offset, &mut buf)?;
+        for rec in &index.chunks {
+            let at = rec.offset as usize;
+            check_walk_chunk(rec, &buf[at..at + rec.len as usize])?;
+        }
         Ok(buf)
     }
 
@@ -478,6 +444,68 @@ fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
         return bad("file is longer than the header says");
     }
     Ok(header)
+}
+
+/// Where the walk section of the file in `source` starts, and its index:
+/// the header is read and checked, not the skeleton (what walk mode needs
+/// of a scene already open). `None` when the file has no walk section.
+pub fn walk_index_of(source: &impl ByteSource) -> Result<Option<(u64, WalkIndex)>, FormatError> {
+    let h = read_header(source)?;
+    Ok(walk_index(source, &h)?.map(|i| (h.walk_offset, i)))
+}
+
+/// The walk section's header and index of the file whose header is `h`,
+/// checked against its CRC.
+fn walk_index(source: &impl ByteSource, h: &FileHeader) -> Result<Option<WalkIndex>, FormatError> {
+    if h.walk_len == 0 {
+        return Ok(None);
+    }
+    let mut head = vec![0u8; size_of::<super::walk::WalkHeader>().min(h.walk_len as usize)];
+    source.read_at(h.walk_offset, &mut head)?;
+    let count = if head.len() >= 12 {
+        u32::from_le_bytes(head[8..12].try_into().expect("4 bytes"))
+    } else {
+        0
+    };
+    let index_len = WalkIndex::index_len(count).min(h.walk_len);
+    let mut buf = crate::limits::alloc_bytes(index_len, "the walk index")
+        .map_err(|e| FormatError::TooLargeForMachine(e.to_string()))?;
+    source.read_at(h.walk_offset, &mut buf)?;
+    let computed = crc32fast::hash(&buf);
+    if computed != h.walk_crc {
+        return Err(FormatError::Checksum {
+            what: "walk section index".into(),
+            stored: h.walk_crc,
+            computed,
+        });
+    }
+    WalkIndex::decode(&buf, h.walk_len).map(Some)
+}
+
+/// Chunk `rec` of the walk section at `offset` in `source`, read, checked
+/// against its CRC and decoded.
+pub fn read_walk_chunk_at(
+    source: &impl ByteSource,
+    offset: u64,
+    rec: &ChunkRecord,
+) -> Result<Chunk, FormatError> {
+    let mut buf = vec![0u8; rec.len as usize];
+    source.read_at(offset + rec.offset, &mut buf)?;
+    check_walk_chunk(rec, &buf)
+}
+
+/// Chunk `rec`'s payload `buf` checked against its CRC and decoded.
+fn check_walk_chunk(rec: &ChunkRecord, buf: &[u8]) -> Result<Chunk, FormatError> {
+    let computed = crc32fast::hash(buf);
+    if computed != rec.crc {
+        return Err(FormatError::Checksum {
+            what: format!("walk chunk ({}, {})", rec.x, rec.z),
+            stored: rec.crc,
+            computed,
+        });
+    }
+    Chunk::decode(buf)
+        .map_err(|e| FormatError::BadHeader(format!("walk chunk ({}, {}): {e}", rec.x, rec.z)))
 }
 
 /// A header of type `H` (its CRC and `header_size` checked).

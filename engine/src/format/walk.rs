@@ -35,6 +35,15 @@ pub const LAYERS: usize = 2;
 /// Spans a column keeps at most (the builder fills the smallest gaps).
 pub const MAX_SPANS: usize = 255;
 
+/// The chunk `(x, z)` holding cell `(x, z)` and the cell's index in it
+/// (row after row, x fastest); `None` beyond the `i32` chunk range.
+pub fn locate(x: i64, z: i64) -> Option<((i32, i32), usize)> {
+    let n = CHUNK_CELLS as i64;
+    let cx = i32::try_from(x.div_euclid(n)).ok()?;
+    let cz = i32::try_from(z.div_euclid(n)).ok()?;
+    Some(((cx, cz), (z.rem_euclid(n) * n + x.rem_euclid(n)) as usize))
+}
+
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct WalkHeader {

@@ -7,7 +7,9 @@ use glam::Vec3;
 
 use super::{Grid, SolidMap, Span};
 use crate::format::FormatError;
-use crate::format::walk::{CHUNK_AREA, CHUNK_CELLS, Chunk, Column, LAYERS, MAX_SPANS, WalkIndex};
+use crate::format::walk::{
+    CHUNK_AREA, CHUNK_CELLS, Chunk, Column, LAYERS, MAX_SPANS, WalkIndex, locate,
+};
 
 /// What a span stands for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -155,17 +157,13 @@ impl SpanGrid {
     /// Adds `s` to cell `(x, z)` of `layer` (cells beyond the `i32` chunk
     /// range are dropped).
     pub fn insert(&mut self, layer: Layer, x: i64, z: i64, s: Span) {
-        let n = CHUNK_CELLS as i64;
-        let (Ok(cx), Ok(cz)) = (
-            i32::try_from(x.div_euclid(n)),
-            i32::try_from(z.div_euclid(n)),
-        ) else {
+        let Some(((cx, cz), c)) = locate(x, z) else {
             return;
         };
         if self.rows.is_some_and(|(z0, z1)| cz < z0 || cz >= z1) {
             return;
         }
-        let cell = (z.rem_euclid(n) * n + x.rem_euclid(n)) as usize + layer as usize * CHUNK_AREA;
+        let cell = c + layer as usize * CHUNK_AREA;
         self.chunks
             .entry((cx, cz))
             .or_default()
@@ -272,17 +270,11 @@ impl SpanGrid {
     /// Removes `[s.lo, s.hi]` from the solid layer of each cell `(x, z)`
     /// listed (an opening's void cut out of the wall around it).
     pub fn carve(&mut self, cuts: &[(i64, i64, Span)]) {
-        let n = CHUNK_CELLS as i64;
         let mut by_chunk: BTreeMap<(i32, i32), Vec<(u16, Span)>> = BTreeMap::new();
         for &(x, z, s) in cuts {
-            let (Ok(cx), Ok(cz)) = (
-                i32::try_from(x.div_euclid(n)),
-                i32::try_from(z.div_euclid(n)),
-            ) else {
-                continue;
-            };
-            let cell = (z.rem_euclid(n) * n + x.rem_euclid(n)) as u16;
-            by_chunk.entry((cx, cz)).or_default().push((cell, s));
+            if let Some((k, c)) = locate(x, z) {
+                by_chunk.entry(k).or_default().push((c as u16, s));
+            }
         }
         for (k, mut cut) in by_chunk {
             let Some(p) = self.chunks.get_mut(&k) else {
@@ -389,15 +381,10 @@ impl SolidMap for SpanGrid {
     }
 
     fn column(&mut self, x: i64, z: i64) -> Result<Column<'_>, FormatError> {
-        let n = CHUNK_CELLS as i64;
-        let (Ok(cx), Ok(cz)) = (
-            i32::try_from(x.div_euclid(n)),
-            i32::try_from(z.div_euclid(n)),
-        ) else {
+        let Some((k, c)) = locate(x, z) else {
             return Ok(Column::default());
         };
-        let c = (z.rem_euclid(n) * n + x.rem_euclid(n)) as usize;
-        Ok(match self.chunks.get_mut(&(cx, cz)) {
+        Ok(match self.chunks.get_mut(&k) {
             Some(p) => {
                 let cols = p.columns();
                 Column {

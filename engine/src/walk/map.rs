@@ -5,7 +5,7 @@ use lru::LruCache;
 
 use super::{Grid, SolidMap};
 use crate::format::FormatError;
-use crate::format::walk::{CHUNK_CELLS, Chunk, ChunkRecord, Column, WalkIndex};
+use crate::format::walk::{CHUNK_CELLS, Chunk, ChunkRecord, Column, WalkIndex, locate};
 use crate::io::ByteSource;
 
 /// The walk section of a scene: its index in core, chunks on demand.
@@ -50,17 +50,12 @@ impl<S: ByteSource> WalkMap<S> {
         }
     }
 
-    /// The scene's walk section, if it has one (a scene built before format
-    /// version 5 has not).
-    pub fn open(
-        scene: &crate::SceneFile<S>,
-        source: S,
-        cap: usize,
-    ) -> Result<Option<Self>, FormatError> {
-        let offset = scene.header().walk_offset;
-        Ok(scene
-            .read_walk_index()?
-            .map(|index| Self::new(source, offset, index, cap)))
+    /// The walk section of the scene file in `source` (its header read and
+    /// checked, not its skeleton), if it has one: a scene built before
+    /// format version 5 has not.
+    pub fn open(source: S, cap: usize) -> Result<Option<Self>, FormatError> {
+        Ok(crate::format::walk_index_of(&source)?
+            .map(|(offset, index)| Self::new(source, offset, index, cap)))
     }
 
     /// Bytes held: the index and the chunks in the cache.
@@ -74,19 +69,8 @@ impl<S: ByteSource> WalkMap<S> {
     }
 
     fn read(&mut self, rec: ChunkRecord) -> Result<Chunk, FormatError> {
-        let mut buf = vec![0u8; rec.len as usize];
-        self.source.read_at(self.offset + rec.offset, &mut buf)?;
         self.reads += 1;
-        let computed = crc32fast::hash(&buf);
-        if computed != rec.crc {
-            return Err(FormatError::Checksum {
-                what: format!("walk chunk ({}, {})", rec.x, rec.z),
-                stored: rec.crc,
-                computed,
-            });
-        }
-        Chunk::decode(&buf)
-            .map_err(|e| FormatError::BadHeader(format!("walk chunk ({}, {}): {e}", rec.x, rec.z)))
+        crate::format::read_walk_chunk_at(&self.source, self.offset, &rec)
     }
 }
 
@@ -101,11 +85,7 @@ impl<S: ByteSource> SolidMap for WalkMap<S> {
     }
 
     fn column(&mut self, x: i64, z: i64) -> Result<Column<'_>, FormatError> {
-        let n = CHUNK_CELLS as i64;
-        let (Ok(cx), Ok(cz)) = (
-            i32::try_from(x.div_euclid(n)),
-            i32::try_from(z.div_euclid(n)),
-        ) else {
+        let Some(((cx, cz), c)) = locate(x, z) else {
             return Ok(Column::default());
         };
         let Some(&rec) = self.index.find(cx, cz) else {
@@ -122,7 +102,6 @@ impl<S: ByteSource> SolidMap for WalkMap<S> {
             }
         }
         let chunk = self.chunks.get(&(cx, cz)).expect("inserted above");
-        let (i, j) = (x.rem_euclid(n) as usize, z.rem_euclid(n) as usize);
-        Ok(chunk.column(i, j))
+        Ok(chunk.column(c % CHUNK_CELLS, c / CHUNK_CELLS))
     }
 }

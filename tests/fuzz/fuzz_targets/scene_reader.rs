@@ -27,7 +27,7 @@ fuzz_target!(|data: &[u8]| {
         }
         let _ = scene.read_walk_bytes();
         let source = scene.source().clone();
-        if let Ok(Some(mut map)) = engine::walk::WalkMap::open(&scene, source, 1 << 16) {
+        if let Ok(Some(mut map)) = engine::walk::WalkMap::open(source, 1 << 16) {
             walk_across(&scene, &mut map);
         }
     }

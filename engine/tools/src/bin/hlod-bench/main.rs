@@ -127,6 +127,7 @@ fn run(a: Args) -> Result<()> {
         Some(walking::tour_path(
             handle.raw()?,
             &scene_name,
+            &skel.nodes[0],
             a.frames,
             a.seed,
         )?)

@@ -5,13 +5,28 @@
 //! costs is printed: the walker's time per frame and the bytes its walk map
 //! holds, beside the footprint (they are not part of it).
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
+use engine::ByteSource;
 use engine::camera::Pose;
 use engine::walk::{Body, WalkMap, Walker};
-use engine::{ByteSource, SceneFile};
 use glam::Vec2;
 use std::sync::Arc;
 use std::time::Instant;
+
+/// The walk section of the scene in `source`, for `option`.
+fn open(
+    source: Arc<dyn ByteSource>,
+    name: &str,
+    option: &str,
+) -> Result<WalkMap<Arc<dyn ByteSource>>> {
+    let map = WalkMap::open(source, engine::walk::DEFAULT_CAP).with_context(|| name.to_string())?;
+    map.with_context(|| {
+        format!(
+            "{name}: {option}: the scene has no walk section (built before format version 5, \
+             or with --walk-cell 0): rebuild it"
+        )
+    })
+}
 
 /// `--path-kind walk`: an interior walk generated on the scene's walk
 /// section ([`engine::walk::tour`]): from a place indoors drawn with `seed`
@@ -20,18 +35,11 @@ use std::time::Instant;
 pub fn tour_path(
     source: Arc<dyn ByteSource>,
     name: &str,
+    root: &engine::NodeRecord,
     frames: usize,
     seed: u64,
 ) -> Result<Vec<Pose>> {
-    let scene = SceneFile::from_source(source.clone()).with_context(|| name.to_string())?;
-    let Some(mut map) = WalkMap::open(&scene, source, engine::walk::DEFAULT_CAP)
-        .with_context(|| name.to_string())?
-    else {
-        bail!(
-            "{name}: --path-kind walk: the scene has no walk section (built before format version 5, or with --walk-cell 0): rebuild it"
-        );
-    };
-    let root = &scene.skeleton().nodes[0];
+    let mut map = open(source, name, "--path-kind walk")?;
     let (lo, hi) = (
         Vec2::new(root.bbox_min[0], root.bbox_min[2]),
         Vec2::new(root.bbox_max[0], root.bbox_max[2]),
@@ -56,14 +64,7 @@ pub fn walked(
     path: &[Pose],
     fps: f64,
 ) -> Result<Vec<Pose>> {
-    let scene = SceneFile::from_source(source.clone()).with_context(|| name.to_string())?;
-    let Some(mut map) = WalkMap::open(&scene, source, engine::walk::DEFAULT_CAP)
-        .with_context(|| name.to_string())?
-    else {
-        bail!(
-            "{name}: --walk: the scene has no walk section (built before format version 5, or with --walk-cell 0): rebuild it"
-        );
-    };
+    let mut map = open(source, name, "--walk")?;
     let Some(first) = path.first() else {
         return Ok(Vec::new());
     };
