@@ -48,7 +48,7 @@ scenes="pp1 pp2 de2 de3"
 [ "${WITH_777:-0}" = 1 ] && scenes="$scenes b777"
 for scene in $scenes schep10 duplex10; do
   case "$scene" in
-    schep* | duplex*) kinds="interior flythrough" ;;
+    schep* | duplex*) kinds="rooms flythrough" ;;
     *) kinds="flythrough approach-orbit" ;;
   esac
   for kind in $kinds; do

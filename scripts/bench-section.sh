@@ -3,17 +3,18 @@
 # tilings of the Schependomlaan and the Duplex on the interior and fly-through paths (two seeds
 # each) in-core and out-of-core with prefetching, without a section and with a section box that
 # keeps the ground storey (from below the foundations up to TOP metres, the whole plan), or with
-# the elements whose description holds a text hidden (VARIANTS="none hide:IfcSlab"), and tabulates
+# the elements whose description holds a text hidden or x-rayed (VARIANTS="none hide:IfcSlab
+# xray:IfcSlab"), and tabulates
 # each run's front (median and largest, the footprint the view needs), frame times, Stage II
 # bytes and substituted frames. Same path, same ε (2 px), same footprint (5%, `ssd`), `none`
 # renderer. The scenes are built as scripts/anatomy.sh builds them (in out/scenes/).
 # Table: out/section/summary.md. About 15 minutes on 2 cores.
-# SCENES and KINDS choose among the scenes and path kinds (interior, flythrough, walk: a walk
+# SCENES and KINDS choose among the scenes and path kinds (rooms, flythrough, interior: a walk
 # generated on the walk section). VARIANTS="none walk" walks the paths instead (hlod-bench --walk): the walker's cost per frame
 # and its walk map's bytes go to out/section/walk-lines.txt.
-# Usage: [VARIANTS="none storey hide:TEXT walk …"] scripts/bench-section.sh [TOP] [SEEDS] [FRAMES] [BUDGET]
-#   (defaults: VARIANTS="none storey", 2.5 1,2 600 5%; tables to out/section/summary.md, or
-#   summary-hide.md when a variant hides)
+# Usage: [VARIANTS="none storey hide:TEXT xray:TEXT walk …"] scripts/bench-section.sh [TOP] [SEEDS]
+#   [FRAMES] [BUDGET] (defaults: VARIANTS="none storey", 2.5 1,2 600 5%; tables to
+#   out/section/summary.md, or summary-hide.md when a variant hides or x-rays)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 top="${1:-2.5}"
@@ -47,7 +48,7 @@ sum() { # file column scale
 }
 variants="${VARIANTS:-none storey}"
 summary="$out/summary.md"
-case "$variants" in *hide:*) summary="$out/summary-hide.md" ;; *walk*) summary="$out/summary-walk.md"; rm -f "$out/walk-lines.txt" ;; esac
+case "$variants" in *hide:* | *xray:*) summary="$out/summary-hide.md" ;; *walk*) summary="$out/summary-walk.md"; rm -f "$out/walk-lines.txt" ;; esac
 {
   echo "| scene | path | seed | section or hidden | front MiB median / max | front tris median | in-core ms median / p99 | pre ms median / p99 | Stage II MiB | frames substituted |"
   echo "|---|---|---:|---|---:|---:|---:|---:|---:|---:|"
@@ -58,7 +59,7 @@ for scene in ${SCENES:-schep10 duplex10}; do
     sed -n 's/.*bounds \[\(.*\)\] \.\. \[\(.*\)\], root.*/\1 \2/p' | tr -d ',')
   box="$(awk -v a="$x0" -v b="$y0" -v c="$z0" -v d="$x1" -v t="$top" -v f="$z1" \
     'BEGIN { printf "%g,%g,%g,%g,%g,%g", a - 1, b - 1, c - 1, d + 1, t, f + 1 }')"
-  for kind in ${KINDS:-interior flythrough}; do
+  for kind in ${KINDS:-rooms flythrough}; do
     for seed in "${seed_list[@]}"; do
       for cut in $variants; do
         o="$out/$scene-$kind-s$seed-${cut/:/-}"
@@ -67,6 +68,7 @@ for scene in ${SCENES:-schep10 duplex10}; do
         case "$cut" in
           storey) args=(--section-box "$box") label="box y ≤ $top m" ;;
           hide:*) args=(--hide "${cut#hide:}") label="${cut#hide:} hidden" ;;
+          xray:*) args=(--xray "${cut#xray:}") label="${cut#xray:} x-rayed" ;;
           walk) args=(--walk) label="walked" ;;
         esac
         $B/hlod-bench "$dir/$scene.hlod" --path-kind "$kind" --seed "$seed" --frames "$frames" \

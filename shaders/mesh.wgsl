@@ -4,6 +4,9 @@
 // writes depth; the translucent pass (fs_translucent, alpha blending, no
 // depth write) draws the others (glass, translucent materials) over it.
 // Both discard what a section plane cuts away; the opaque pass caps the cut.
+// X-rayed elements are drawn by the translucent pass with records of their
+// own (fade direction 3): a pale, mostly transparent blue over the rest,
+// writing no depth, so they hide nothing.
 //
 // Vertex layout (16 bytes, see engine::format::rep::PackedVertex):
 //   location 0: position unorm16x4 over the rep's quantisation box
@@ -27,7 +30,7 @@ struct DrawData {
     // xyz: world position of quantised 0; w: a fade's progress t in [0, 1].
     quant_min: vec4<f32>,
     // xyz: world size of one unorm16 step times 65535; w: the fade's
-    // direction (0 opaque, 1 fading in, 2 fading out).
+    // direction (0 opaque, 1 fading in, 2 fading out), or 3: x-rayed.
     quant_extent: vec4<f32>,
     // rgb: debug tint; a: how much of it replaces the vertex colour.
     tint: vec4<f32>,
@@ -68,12 +71,18 @@ fn vs_main(v: VsIn, @builtin(instance_index) draw: u32) -> VsOut {
     out.world = world;
     out.normal = v.normal.xyz;
     out.color = vec4<f32>(mix(v.color.rgb, d.tint.rgb, d.tint.a), v.color.a);
+    if d.quant_extent.w > 2.5 {
+        out.color = vec4<f32>(mix(out.color.rgb, XRAY_RGB, 0.6), XRAY_ALPHA);
+    }
     out.fade = vec2<f32>(d.quant_min.w, d.quant_extent.w);
     return out;
 }
 
 // A fragment at least this opaque is drawn by the opaque pass.
 const OPAQUE: f32 = 0.995;
+// An x-rayed element's colour and opacity.
+const XRAY_RGB: vec3<f32> = vec3<f32>(0.55, 0.75, 1.0);
+const XRAY_ALPHA: f32 = 0.2;
 
 // The headlit colour of a fragment, with its alpha.
 fn shade(in: VsOut) -> vec4<f32> {
@@ -92,7 +101,7 @@ fn shade(in: VsOut) -> vec4<f32> {
 fn faded_out(in: VsOut) -> bool {
     let threshold = dither_threshold(vec2<u32>(in.clip.xy));
     let fading_in = in.fade.y > 0.5 && in.fade.y < 1.5;
-    let fading_out = in.fade.y > 1.5;
+    let fading_out = in.fade.y > 1.5 && in.fade.y < 2.5;
     return (fading_in && threshold >= in.fade.x) || (fading_out && threshold < in.fade.x);
 }
 

@@ -86,9 +86,10 @@ impl FrontIndex {
             // ε_N[i] = E_i * k / dist < tol  <=>  E_i < tol * dist / k
             let limit = tol_px * dist / k;
             let (fr, rc) = (self.first_rep[i], self.rep_count[i]);
-            // A node with hidden objects below it draws none of its own
-            // reps (a leaf: its finest, drawn in part).
-            let chosen = (vis == NodeVis::Shown as u8)
+            // A node with hidden or x-rayed objects below it draws none of
+            // its own reps (a leaf: its finest, drawn in part); an x-rayed
+            // one is chosen as a shown one is.
+            let chosen = (vis == NodeVis::Shown as u8 || vis == NodeVis::XRay as u8)
                 .then(|| (fr..fr + rc).find(|&r| self.errors[r as usize] < limit))
                 .flatten();
             match chosen {
@@ -126,6 +127,13 @@ impl FrontIndex {
     /// The node's box.
     pub fn node_box(&self, node: u32) -> (Vec3, Vec3) {
         (self.min[node as usize], self.max[node as usize])
+    }
+
+    /// Whether every object under `node` is shown (neither hidden nor
+    /// x-rayed): only such reps hide what is behind them.
+    pub fn all_shown(&self, node: u32) -> bool {
+        (self.vis.0.get(node as usize))
+            .is_none_or(|v| v.load(Ordering::Relaxed) == NodeVis::Shown as u8)
     }
 
     /// What may be drawn of each node from now on, for every front

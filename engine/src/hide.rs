@@ -9,36 +9,57 @@
 //! objects with no record of which triangle is whose, so the front goes
 //! down to the leaves. A merged leaf with some objects hidden draws its
 //! finest rep, the one the object section describes run by run, with only
-//! the shown objects' triangles ([`Hiding::triangle_ranges`]).
+//! the shown objects' triangles ([`Hiding::parts`]).
+//!
+//! X-rayed objects ([`Look::XRay`]) stay in the front as if shown, since
+//! they are drawn; a node all of whose objects are x-rayed draws its reps
+//! translucent and is no occluder, and a node mixing looks goes down to the
+//! leaves as a node with hidden objects does.
 
 use std::ops::Range;
 
 use crate::format::NONE;
 use crate::format::objects::ObjectTable;
 use crate::skeleton::{RepId, Skeleton};
+use crate::tree::Look;
 
 /// What may be drawn of a node.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[repr(u8)]
 pub enum NodeVis {
-    /// Nothing below it is hidden.
+    /// Nothing below it is hidden or x-rayed.
     #[default]
     Shown = 0,
     /// Everything below it is hidden: it leaves the front.
     Hidden = 1,
-    /// Some of it is hidden: its own reps are not used (a leaf draws its
-    /// finest rep, without the hidden objects' triangles).
+    /// Some of it is hidden or x-rayed: its own reps are not used (a leaf
+    /// draws its finest rep, each object's triangles as it looks).
     Mixed = 2,
+    /// Everything below it is x-rayed: in the front as if shown, drawn
+    /// translucent, no occluder.
+    XRay = 3,
 }
 
-/// The nodes' visibility for a set of hidden objects.
+/// A whole rep's triangles, as a range of [`DrawParts`].
+pub const WHOLE: Range<u32> = 0..u32::MAX / 3;
+
+/// How the renderer draws reps that are not simply opaque: per rep (sorted
+/// by rep id), the triangle ranges drawn opaque and those drawn x-rayed.
+/// A rep in neither list is drawn whole and opaque; a rep in `opaque` only
+/// draws those ranges (an empty list: nothing opaque).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DrawParts {
+    pub opaque: Vec<(RepId, Vec<Range<u32>>)>,
+    pub xray: Vec<(RepId, Vec<Range<u32>>)>,
+}
+
+/// The nodes' visibility for a set of hidden or x-rayed objects.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Hiding {
     nodes: Vec<NodeVis>,
-    /// For each merged leaf with some objects hidden: its finest rep and
-    /// the triangle ranges of that rep still shown.
-    ranges: Vec<(RepId, Vec<Range<u32>>)>,
+    parts: DrawParts,
     hidden_objects: usize,
+    xray_objects: usize,
 }
 
 impl Hiding {
@@ -46,21 +67,42 @@ impl Hiding {
     pub fn none(node_count: usize) -> Self {
         Self {
             nodes: vec![NodeVis::Shown; node_count],
-            ranges: Vec::new(),
-            hidden_objects: 0,
+            ..Self::default()
         }
     }
 
     /// The visibility of every node when the objects `k` with
-    /// `hidden(k)` are hidden. Leaves that name no object (a version-1
-    /// scene) stay shown.
+    /// `hidden(k)` are hidden.
     pub fn new(s: &Skeleton, table: &ObjectTable, hidden: impl Fn(u32) -> bool) -> Self {
+        Self::with_looks(
+            s,
+            table,
+            |k| {
+                if hidden(k) { Look::Hidden } else { Look::Shown }
+            },
+        )
+    }
+
+    /// The visibility of every node when object `k` looks `look(k)`.
+    /// Leaves that name no object (a version-1 scene) stay shown.
+    pub fn with_looks(s: &Skeleton, table: &ObjectTable, look: impl Fn(u32) -> Look) -> Self {
         let n = s.nodes.len();
         let mut out = Self::none(n);
-        out.hidden_objects = (0..table.len() as u32).filter(|&k| hidden(k)).count();
-        if out.hidden_objects == 0 {
+        for k in 0..table.len() as u32 {
+            match look(k) {
+                Look::Hidden => out.hidden_objects += 1,
+                Look::XRay => out.xray_objects += 1,
+                Look::Shown => {}
+            }
+        }
+        if out.hidden_objects + out.xray_objects == 0 {
             return out;
         }
+        let vis_of = |k: u32| match look(k) {
+            Look::Shown => NodeVis::Shown,
+            Look::Hidden => NodeVis::Hidden,
+            Look::XRay => NodeVis::XRay,
+        };
         // Children come after their parents: a reverse sweep sees every
         // child before its parent.
         for i in (0..n).rev() {
@@ -70,40 +112,44 @@ impl Hiding {
                 let kids = &out.nodes[c..c + node.child_count as usize];
                 combine(kids.iter().copied())
             } else if node.object != NONE {
-                if hidden(node.object) {
-                    NodeVis::Hidden
-                } else {
-                    NodeVis::Shown
-                }
+                vis_of(node.object)
             } else {
                 let runs = table.runs_of(i as u32);
-                let vis = combine(runs.iter().map(|r| {
-                    if hidden(r.object) {
-                        NodeVis::Hidden
-                    } else {
-                        NodeVis::Shown
-                    }
-                }));
+                let vis = combine(runs.iter().map(|r| vis_of(r.object)));
                 if vis == NodeVis::Mixed && node.rep_count > 0 {
                     let finest = node.first_rep + node.rep_count - 1;
-                    let mut shown: Vec<Range<u32>> = Vec::new();
-                    let mut start = 0;
-                    for r in runs {
-                        if !hidden(r.object) && start < r.tri_end {
-                            match shown.last_mut() {
-                                Some(last) if last.end == start => last.end = r.tri_end,
-                                _ => shown.push(start..r.tri_end),
+                    let ranges = |want: NodeVis| {
+                        let mut out: Vec<Range<u32>> = Vec::new();
+                        let mut start = 0;
+                        for r in runs {
+                            if vis_of(r.object) == want && start < r.tri_end {
+                                match out.last_mut() {
+                                    Some(last) if last.end == start => last.end = r.tri_end,
+                                    _ => out.push(start..r.tri_end),
+                                }
                             }
+                            start = r.tri_end;
                         }
-                        start = r.tri_end;
+                        out
+                    };
+                    out.parts.opaque.push((finest, ranges(NodeVis::Shown)));
+                    let xray = ranges(NodeVis::XRay);
+                    if !xray.is_empty() {
+                        out.parts.xray.push((finest, xray));
                     }
-                    out.ranges.push((finest, shown));
                 }
                 vis
             };
+            if vis == NodeVis::XRay {
+                for r in node.first_rep..node.first_rep + node.rep_count {
+                    out.parts.opaque.push((r, Vec::new()));
+                    out.parts.xray.push((r, vec![WHOLE]));
+                }
+            }
             out.nodes[i] = vis;
         }
-        out.ranges.sort_by_key(|(r, _)| *r);
+        out.parts.opaque.sort_by_key(|(r, _)| *r);
+        out.parts.xray.sort_by_key(|(r, _)| *r);
         out
     }
 
@@ -117,10 +163,15 @@ impl Hiding {
         self.hidden_objects
     }
 
-    /// The merged leaves' finest reps drawn in part, with the triangle
-    /// ranges still shown (by rep id).
-    pub fn triangle_ranges(&self) -> &[(RepId, Vec<Range<u32>>)] {
-        &self.ranges
+    /// How many objects are x-rayed.
+    pub fn xray_objects(&self) -> usize {
+        self.xray_objects
+    }
+
+    /// How the renderer draws the reps of x-rayed nodes and of merged
+    /// leaves drawn in part.
+    pub fn parts(&self) -> &DrawParts {
+        &self.parts
     }
 }
 

@@ -80,6 +80,7 @@ pub mod runtime;
 pub mod scene_handle;
 pub mod section;
 pub mod skeleton;
+pub mod tree;
 pub mod vdt;
 pub mod walk;
 

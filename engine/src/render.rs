@@ -23,10 +23,10 @@ pub trait Renderer {
     fn draw(&mut self, rep: RepId, record: &RepRecord, payload: &Arc<[u8]>, style: DrawStyle);
     /// P_I evicted `rep`: drop any copy of it (GPU memory follows the budget).
     fn evict(&mut self, _rep: RepId) {}
-    /// From now on draw only these triangle ranges of these reps (merged
-    /// leaves with hidden elements, [`crate::hide::Hiding::triangle_ranges`]),
-    /// every triangle of the others.
-    fn set_partial(&mut self, _ranges: &[(RepId, Vec<std::ops::Range<u32>>)]) {}
+    /// From now on draw these reps as `parts` says (x-rayed elements
+    /// translucent, merged leaves with hidden elements in part:
+    /// [`crate::hide::Hiding::parts`]), every other one whole and opaque.
+    fn set_parts(&mut self, _parts: &crate::hide::DrawParts) {}
     /// Finishes the frame (presents, or waits for the GPU).
     fn end_frame(&mut self);
     /// Rep geometry bytes held on the GPU.

@@ -4,6 +4,7 @@ mod build_cmd;
 mod mt_cmd;
 #[cfg(feature = "publish")]
 mod publish_cmd;
+mod tree_cmd;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -40,6 +41,10 @@ enum Cmd {
         /// Skip reading and checking every rep payload (header and skeleton only).
         #[arg(long)]
         no_verify_data: bool,
+        /// Print the model tree (site, building, storey, type; or the glTF
+        /// node hierarchy) down to this many levels of groups.
+        #[arg(long, value_name = "DEPTH", num_args = 0..=1, default_missing_value = "3")]
+        tree: Option<usize>,
     },
     /// Rewrite a scene file with its reps in the spatial layout (selection
     /// band, then Morton order; see `hlod_builder::layout`), atomically.
@@ -197,7 +202,8 @@ fn run(cli: Cli) -> Result<()> {
         Cmd::Info {
             file,
             no_verify_data,
-        } => info(&file, !no_verify_data),
+            tree,
+        } => info(&file, !no_verify_data, tree),
         Cmd::Relayout {
             input,
             output,
@@ -367,7 +373,7 @@ fn parse_grid(s: &str) -> Result<(usize, usize)> {
     Ok((n, m))
 }
 
-fn info(file: &std::path::Path, verify: bool) -> Result<()> {
+fn info(file: &std::path::Path, verify: bool, tree: Option<usize>) -> Result<()> {
     // A local file, or a URL (http(s)://, s3://) read with ranged requests.
     let handle = engine::SceneHandle::open(file).with_context(|| format!("{}", file.display()))?;
     let scene = engine::SceneFile::from_source(handle.raw()?)
@@ -476,6 +482,9 @@ fn info(file: &std::path::Path, verify: bool) -> Result<()> {
         human_bytes(resident),
         resident as f64 / stored.max(1) as f64,
     );
+    if let Some(depth) = tree {
+        tree_cmd::print_tree(&scene, &name, depth).with_context(|| file.display().to_string())?;
+    }
     if verify {
         let v = verify_data(&scene).with_context(|| format!("{}: rep data", file.display()))?;
         if v.compressed == 0 {

@@ -18,6 +18,7 @@ use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
 mod frame;
+mod tree;
 mod views;
 mod walking;
 
@@ -148,6 +149,8 @@ impl App {
                 find_text: args.find.clone().unwrap_or_default(),
                 frozen: false,
                 panel_frac: 0.0,
+                tree_tab: args.tree,
+                tree: Default::default(),
             },
             args,
             settings,
@@ -308,6 +311,8 @@ impl App {
             KeyCode::KeyH => self.hide_key('h'),
             KeyCode::KeyI => self.hide_key('i'),
             KeyCode::KeyU => self.hide_key('u'),
+            KeyCode::KeyX => self.hide_key('x'),
+            KeyCode::KeyT => self.toggle_tree(),
             KeyCode::BracketRight | KeyCode::BracketLeft => {
                 self.move_section(if code == KeyCode::BracketRight {
                     0.25
@@ -340,6 +345,7 @@ impl App {
 
     fn redraw(&mut self, event_loop: &ActiveEventLoop) {
         self.poll_build();
+        self.ensure_tree();
         let now = Instant::now();
         let dt = (now - self.last).as_secs_f32();
         self.last = now;
@@ -440,6 +446,7 @@ impl App {
                 fly_speed: self.controls.speed,
                 orbit: self.controls.mode == crate::controls::ControlMode::Orbit,
                 walking: walking::status(self.walking.as_ref()),
+                tree: tree::view(self.session.as_ref(), self.selection.as_ref(), &self.ui),
             };
             let (ui_state, hist) = (&mut self.ui, &self.history);
             let out = gfx
@@ -513,40 +520,6 @@ impl App {
         self.apply(actions);
         if exiting {
             event_loop.exit();
-        }
-    }
-
-    fn apply(&mut self, a: ui::Actions) {
-        if let Some(p) = a.open {
-            self.open(Path::new(p.trim()));
-        }
-        if a.clear_selection {
-            self.selection = None;
-        }
-        if let (Some(s), Some(sess), Some(gfx)) = (a.settings, &mut self.session, &self.gfx) {
-            if let Err(e) = sess.apply(&gfx.ctx, s) {
-                self.report(format!("{e:#}"));
-            } else {
-                self.settings = s;
-            }
-        }
-        if let Some(p) = a.play {
-            match read_path(Path::new(p.trim())) {
-                Ok(poses) => self.play = Some((poses, 0)),
-                Err(e) => self.report(e.to_string()),
-            }
-        }
-        if a.toggle_record {
-            self.toggle_record();
-        }
-        if a.screenshot {
-            self.shots.pending = Some(self.next_shot_name());
-        }
-        if a.frame_all {
-            self.frame_all();
-        }
-        if let Some(t) = a.find {
-            self.find(&t);
         }
     }
 

@@ -19,6 +19,7 @@ mod gfx;
 mod overlay;
 mod picking;
 mod session;
+mod tree_panel;
 mod ui;
 mod viewpoint;
 
@@ -126,6 +127,24 @@ pub struct Args {
     /// section; key G toggles walk and fly.
     #[arg(long)]
     pub walk: bool,
+    /// Open the main panel on the model tree (key T): site, building,
+    /// storey, IFC type and element, or the glTF node hierarchy.
+    #[arg(long)]
+    pub tree: bool,
+    /// Once the scene opens, show only these elements: a group of the
+    /// model tree by its name (a storey, a type, a glTF node), else every
+    /// element whose name, type or GlobalId holds the text (repeatable;
+    /// applied before --xray and --hide).
+    #[arg(long, value_name = "GROUP|TEXT")]
+    pub isolate: Vec<String>,
+    /// X-ray these elements (a tree group or a text, as --isolate): drawn
+    /// translucent, hiding nothing behind them.
+    #[arg(long, value_name = "GROUP|TEXT")]
+    pub xray: Vec<String>,
+    /// Hide these elements (a tree group or a text, as --isolate): they
+    /// leave the front and are not fetched.
+    #[arg(long, value_name = "GROUP|TEXT")]
+    pub hide: Vec<String>,
     /// Save the last frame (with the overlay) as PNG at exit.
     #[arg(long)]
     pub screenshot: Option<PathBuf>,

@@ -62,17 +62,20 @@ impl Picker {
     }
 
     /// The element under pixel `(x, y)` of a `size` viewport seen from
-    /// `pose`, in the model cut open by `section`, hidden objects left out.
+    /// `pose`, in the model cut open by `section`, hidden and x-rayed
+    /// objects left out (one sees and picks through them).
     pub fn pick(
         &self,
         pose: &engine::camera::Pose,
         size: (u32, u32),
         x: f32,
         y: f32,
-        (origin, section, hidden): ([f64; 3], &engine::section::Section, &[bool]),
+        (origin, section, looks): ([f64; 3], &engine::section::Section, &[engine::tree::Look]),
     ) -> Result<Option<Selection>> {
         let (o, d) = pose.ray(size.0, size.1, x, y);
-        let shown = |k: u32| !hidden.get(k as usize).copied().unwrap_or(false);
+        let shown = |k: u32| {
+            looks.get(k as usize).copied().unwrap_or_default() == engine::tree::Look::Shown
+        };
         let cut = (section, &shown as &dyn Fn(u32) -> bool);
         let Some(hit) = engine::pick::pick_cut(&self.scene, &self.objects, o, d, cut)? else {
             return Ok(None);
@@ -150,9 +153,28 @@ impl Picker {
         if needle.is_empty() {
             return Vec::new();
         }
+        let leaf = self.leaves();
+        (0..self.objects.len() as u32)
+            .filter(|&k| leaf[k as usize] != u32::MAX)
+            .filter(|&k| {
+                self.objects
+                    .info(k)
+                    .is_some_and(|t| t.to_lowercase().contains(&needle))
+            })
+            .map(|k| self.selection(Some(k), leaf[k as usize], origin))
+            .collect()
+    }
+
+    /// Object `k` as a selection (`None`: no leaf draws it).
+    pub fn select(&self, k: u32, origin: [f64; 3]) -> Option<Selection> {
+        let leaf = *self.leaves().get(k as usize)?;
+        (leaf != u32::MAX).then(|| self.selection(Some(k), leaf, origin))
+    }
+
+    /// The first leaf of each object (a one-object leaf or chunk, else a
+    /// merged leaf that holds it); `u32::MAX` for none.
+    fn leaves(&self) -> Vec<u32> {
         let s = self.scene.skeleton();
-        // The first leaf of each object (a one-object leaf or chunk, else
-        // a merged leaf that holds it).
         let mut leaf = vec![u32::MAX; self.objects.len()];
         for (i, n) in s.nodes.iter().enumerate() {
             if n.child_count > 0 {
@@ -173,15 +195,7 @@ impl Picker {
                 }
             }
         }
-        (0..self.objects.len() as u32)
-            .filter(|&k| leaf[k as usize] != u32::MAX)
-            .filter(|&k| {
-                self.objects
-                    .info(k)
-                    .is_some_and(|t| t.to_lowercase().contains(&needle))
-            })
-            .map(|k| self.selection(Some(k), leaf[k as usize], origin))
-            .collect()
+        leaf
     }
 }
 

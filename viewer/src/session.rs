@@ -10,6 +10,7 @@ use anyhow::{Context, Result};
 
 use engine::disk::DiskModel;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
+use engine::tree::Look;
 use engine::{SceneFile, SceneHandle, Skeleton};
 use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use glam::Vec3;
@@ -43,9 +44,14 @@ pub struct Session {
     pub origin: [f64; 3],
     /// The scene file and its object section, opened at the first pick.
     picker: Option<crate::picking::Picker>,
-    /// Hidden objects (by object number) and what they make of the nodes.
-    hidden: Vec<bool>,
+    /// How each object is drawn (by object number; past the end: shown),
+    /// and what that makes of the nodes.
+    looks: Vec<Look>,
     hiding: Option<engine::hide::Hiding>,
+    /// The model tree, made from the object section when first asked for.
+    tree: Option<engine::tree::ModelTree>,
+    /// Making it failed (said once).
+    pub tree_failed: bool,
 }
 
 impl std::fmt::Debug for Session {
@@ -108,8 +114,10 @@ impl Session {
             settings,
             origin,
             picker: None,
-            hidden: Vec::new(),
+            looks: Vec::new(),
             hiding: None,
+            tree: None,
+            tree_failed: false,
         })
     }
 
@@ -123,7 +131,7 @@ impl Session {
         self.picker()?;
         let picker = self.picker.as_ref().expect("opened above");
         let cfg = *self.renderer.config();
-        let cut = (self.origin, &self.settings.params.section, &self.hidden[..]);
+        let cut = (self.origin, &self.settings.params.section, &self.looks[..]);
         picker.pick(pose, (cfg.width, cfg.height), x, y, cut)
     }
 
@@ -145,31 +153,83 @@ impl Session {
         Ok(self.picker.as_ref().expect("opened above"))
     }
 
-    /// Hides the objects `hidden` marks (one flag per object; an empty
-    /// list shows everything) from the next frame on: they leave the front
-    /// and are not fetched. Returns how many are hidden.
-    pub fn set_hidden(&mut self, hidden: Vec<bool>) -> Result<usize> {
+    /// The model tree (made once, from the object section).
+    pub fn tree(&mut self) -> Result<&engine::tree::ModelTree> {
+        if self.tree.is_none() {
+            self.picker()?;
+            let table = self.picker.as_ref().expect("opened above").objects();
+            let name = (self.path.file_name()).map_or("model".into(), |n| n.to_string_lossy());
+            let t = std::time::Instant::now();
+            let drawn = engine::tree::drawn_objects(&self.skeleton, table);
+            let tree = engine::tree::ModelTree::new(table, &name, &drawn);
+            tracing::info!(
+                "model tree: {} groups over {} elements, made in {:.1} ms",
+                tree.groups().len(),
+                table.len(),
+                t.elapsed().as_secs_f64() * 1e3
+            );
+            self.tree = Some(tree);
+        }
+        Ok(self.tree.as_ref().expect("made above"))
+    }
+
+    /// The model tree, if made.
+    pub fn tree_made(&self) -> Option<&engine::tree::ModelTree> {
+        self.tree.as_ref()
+    }
+
+    /// The objects whose label, GlobalId or description holds `text`, in
+    /// the tree's order; at most `limit`.
+    pub fn search(&mut self, text: &str, limit: usize) -> Result<Vec<u32>> {
+        self.tree()?;
+        let (Some(tree), Some(p)) = (&self.tree, &self.picker) else {
+            anyhow::bail!("no model tree");
+        };
+        Ok(tree.search(p.objects(), text, limit))
+    }
+
+    /// The objects `text` names: a tree group's by its name, else those
+    /// whose description holds it; and what they are, for the log.
+    pub fn resolve(&mut self, text: &str) -> Result<(Vec<u32>, String)> {
+        let tree = self.tree()?;
+        let groups = tree.groups_named(text);
+        if let Some(&g) = groups.first() {
+            let label = &tree.groups()[g as usize].label;
+            let what = match groups.len() {
+                1 => format!("group {label:?}"),
+                n => format!("{n} groups {label:?}"),
+            };
+            return Ok((tree.objects_named(text), what));
+        }
+        Ok((self.search(text, usize::MAX)?, format!("{text:?}")))
+    }
+
+    /// Draws object `k` as `looks[k]` says (an empty list shows
+    /// everything) from the next frame on: hidden objects leave the front
+    /// and are not fetched, x-rayed ones are drawn translucent. Returns how
+    /// many are hidden and how many x-rayed.
+    pub fn set_looks(&mut self, looks: Vec<Look>) -> Result<(usize, usize)> {
         self.picker()?;
         let table = self.picker.as_ref().expect("opened above").objects();
-        let h = engine::hide::Hiding::new(&self.skeleton, table, |k| {
-            hidden.get(k as usize) == Some(&true)
+        let h = engine::hide::Hiding::with_looks(&self.skeleton, table, |k| {
+            looks.get(k as usize).copied().unwrap_or_default()
         });
-        let n = h.hidden_objects();
-        self.hidden = hidden;
+        let n = (h.hidden_objects(), h.xray_objects());
+        self.looks = looks;
         self.hiding = Some(h);
         self.apply_hiding();
         Ok(n)
     }
 
-    /// The hidden objects' flags (empty: none hidden).
-    pub fn hidden(&self) -> &[bool] {
-        &self.hidden
+    /// How each object is drawn (empty: all shown).
+    pub fn looks(&self) -> &[Look] {
+        &self.looks
     }
 
     fn apply_hiding(&mut self) {
         if let (Some(h), Some(w)) = (&self.hiding, &mut self.walk) {
             w.set_hiding(h);
-            engine::render::Renderer::set_partial(&mut self.renderer, h.triangle_ranges());
+            engine::render::Renderer::set_parts(&mut self.renderer, h.parts());
         }
     }
 

@@ -31,6 +31,9 @@ pub struct UiState {
     /// The fraction of the window's width, from the left, that the main
     /// panel covers (as last drawn): framing keeps the model clear of it.
     pub panel_frac: f32,
+    /// The main panel shows the model tree instead of the walkthrough.
+    pub tree_tab: bool,
+    pub tree: crate::tree_panel::TreeState,
 }
 
 /// What the user asked for this frame.
@@ -45,6 +48,8 @@ pub struct Actions {
     pub clear_selection: bool,
     /// Find an element by name or GlobalId and fly to it.
     pub find: Option<String>,
+    /// What the model tree asks for.
+    pub tree: crate::tree_panel::TreeOut,
 }
 
 /// A measurement in the view: its ends in pixels and its label.
@@ -77,6 +82,9 @@ pub struct View<'a> {
     pub orbit: bool,
     /// Walk mode's status line, while walking.
     pub walking: Option<String>,
+    /// The model tree, while its tab is shown (`None`: the scene describes
+    /// no elements).
+    pub tree: Option<crate::tree_panel::TreeView<'a>>,
 }
 
 fn series(h: &VecDeque<Sample>, f: impl Fn(&Sample) -> f64) -> PlotPoints<'static> {
@@ -134,6 +142,19 @@ pub fn draw(
                     ui.colored_label(egui::Color32::from_rgb(255, 200, 80), format!("loading: {n} reps still coming, coarser ones shown"));
                 }
                 None => {}
+            }
+            ui.horizontal(|ui| {
+                ui.selectable_value(&mut st.tree_tab, false, "Walkthrough");
+                ui.selectable_value(&mut st.tree_tab, true, "Model tree (T)");
+            });
+            if st.tree_tab {
+                match &v.tree {
+                    Some(t) => act.tree = crate::tree_panel::show(ui, &mut st.tree, t),
+                    None => {
+                        ui.label("This scene describes no elements: rebuild it for a model tree.");
+                    }
+                }
+                return;
             }
             if let Some(last) = hist.back() {
                 let n = hist.len().max(1) as f64;
@@ -233,7 +254,8 @@ pub fn draw(
             let planes = v.settings.map_or(0, |s| s.params.section.planes().len());
             ui.label(match planes {
                 0 => "no section (C cuts at eye height, B boxes the selection; H hides, I \
-                      isolates, U shows all; V saves a BCF viewpoint, M measures)"
+                      isolates, X x-rays, U shows all, T the model tree; V saves a BCF \
+                      viewpoint, M measures)"
                     .to_string(),
                 n => format!("section: {n} plane(s) cut the model ([ ] move them; C or B: off)"),
             });

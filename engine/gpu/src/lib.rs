@@ -14,10 +14,12 @@
 
 pub mod arena;
 mod order;
+mod parts;
 mod renderer;
 mod resources;
 
-pub use renderer::{BACKGROUND, Colouring, GpuRenderer, GpuStats, RendererConfig};
+pub use parts::Colouring;
+pub use renderer::{BACKGROUND, GpuRenderer, GpuStats, RendererConfig};
 pub use resources::read_texture;
 
 use std::sync::{Arc, Mutex};

@@ -9,14 +9,15 @@ use glam::Vec3;
 
 use super::arena::{Alloc, Arena};
 use super::order::back_to_front;
+use super::parts::{Colouring, Parts, XRAY_DIRECTION};
 use super::resources::{
     DrawData, Target, bind, create_pipeline, draw_buffer, layout_entry, make_target, read_texture,
     view_proj,
 };
 use super::{GpuContext, GpuError};
 use engine::camera::View;
+use engine::format::RepRecord;
 use engine::format::{PackedVertex, REP_MAGIC, RepHeader};
-use engine::format::{RepKind, RepRecord};
 use engine::image::RgbaImage;
 use engine::render::{DrawStyle, Fade, Renderer};
 use engine::skeleton::RepId;
@@ -28,35 +29,6 @@ pub const BACKGROUND: wgpu::Color = wgpu::Color {
     b: 0.12,
     a: 1.0,
 };
-
-/// How reps are coloured.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Colouring {
-    /// The scene's own per-vertex colours.
-    #[default]
-    Object,
-    /// By position in the node's rep list (coarse to fine).
-    LodLevel,
-    /// HLODs orange, LODs blue.
-    Kind,
-    /// Reps drawn in place of a missing front rep red, the rest grey.
-    Substituted,
-}
-
-impl Colouring {
-    /// Parses `object`, `lod`, `kind` or `substituted`.
-    pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "object" => Ok(Self::Object),
-            "lod" => Ok(Self::LodLevel),
-            "kind" => Ok(Self::Kind),
-            "substituted" => Ok(Self::Substituted),
-            _ => Err(format!(
-                "unknown colouring {s:?}: use object, lod, kind or substituted"
-            )),
-        }
-    }
-}
 
 /// Renderer set-up.
 #[derive(Clone, Copy, Debug)]
@@ -171,9 +143,8 @@ pub struct GpuRenderer {
     stats: GpuStats,
     warned: HashSet<RepId>,
     repacking: bool,
-    /// Reps drawn in part: the triangle ranges still shown
-    /// ([`Renderer::set_partial`]).
-    partial: HashMap<RepId, Vec<std::ops::Range<u32>>>,
+    /// Reps drawn in part or x-rayed ([`Renderer::set_parts`]).
+    parts: Parts,
 }
 
 impl GpuRenderer {
@@ -260,7 +231,7 @@ impl GpuRenderer {
             stats: GpuStats::default(),
             warned: HashSet::new(),
             repacking: false,
-            partial: HashMap::new(),
+            parts: Parts::default(),
         })
     }
 
@@ -439,26 +410,6 @@ impl GpuRenderer {
         true
     }
 
-    fn tint(&self, d: &FrameDraw) -> [f32; 4] {
-        const LEVELS: [[f32; 3]; 6] = [
-            [0.20, 0.40, 0.95],
-            [0.15, 0.75, 0.85],
-            [0.25, 0.80, 0.30],
-            [0.90, 0.85, 0.20],
-            [0.95, 0.55, 0.15],
-            [0.90, 0.20, 0.20],
-        ];
-        let rgb = match self.cfg.colouring {
-            Colouring::Object => return [0.0; 4],
-            Colouring::LodLevel => LEVELS[usize::from(d.level).min(LEVELS.len() - 1)],
-            Colouring::Kind if d.kind == RepKind::Hlod as u16 => [0.95, 0.55, 0.15],
-            Colouring::Kind => [0.25, 0.45, 0.90],
-            Colouring::Substituted if d.substitute => [0.95, 0.10, 0.10],
-            Colouring::Substituted => [0.60, 0.60, 0.60],
-        };
-        [rgb[0], rgb[1], rgb[2], 1.0]
-    }
-
     /// Draws this frame's reps into `color` (with `depth`) and submits.
     fn encode_frame(&mut self, color: &wgpu::TextureView, depth: &wgpu::TextureView) {
         let device = &self.ctx.device;
@@ -469,7 +420,7 @@ impl GpuRenderer {
             .filter_map(|(i, d)| self.slots.get(&d.rep).map(|s| (i, *s)))
             .collect();
         draws.sort_unstable_by_key(|(i, s)| (s.alloc.chunk, s.index_u32, self.frame_draws[*i].rep));
-        let data: Vec<DrawData> = draws
+        let mut data: Vec<DrawData> = draws
             .iter()
             .map(|(i, s)| {
                 let e = s.extent();
@@ -479,13 +430,22 @@ impl GpuRenderer {
                     Fade::In(t) => (t, 1.0),
                     Fade::Out(t) => (t, 2.0),
                 };
+                let d = &self.frame_draws[*i];
                 DrawData {
                     quant_min: [s.quant_min[0], s.quant_min[1], s.quant_min[2], t],
                     quant_extent: [e[0], e[1], e[2], dir],
-                    tint: self.tint(&self.frame_draws[*i]),
+                    tint: self.cfg.colouring.tint(d.level, d.kind, d.substitute),
                 }
             })
             .collect();
+        // X-rayed draws use a second record each, after the first ones.
+        let n = data.len();
+        if self.parts.any_xray() {
+            data.extend_from_within(..);
+            for d in &mut data[n..] {
+                (d.quant_min[3], d.quant_extent[3]) = (1.0, XRAY_DIRECTION);
+            }
+        }
         if data.len() as u64 > self.draw_buf.size() / size_of::<DrawData>() as u64 {
             self.draw_buf = draw_buffer(device, data.len().next_power_of_two() as u64);
             self.bind_group = bind(device, &self.layout, &self.globals, &self.draw_buf);
@@ -542,12 +502,15 @@ impl GpuRenderer {
                 pass.set_bind_group(0, &self.bind_group, &[]);
                 // The opaque pass, then the translucent pass over it: only
                 // the reps with a translucent colour, back to front.
+                // X-rayed elements go last, over everything, hiding nothing.
                 pass.set_pipeline(&self.pipeline);
-                self.stats.draws += self.issue(&mut pass, &draws, 0..draws.len());
-                let glass = self.translucent_order(&draws);
-                if !glass.is_empty() {
+                self.stats.draws += self.issue(&mut pass, &draws, 0..draws.len(), false);
+                let glass = self.translucent_order(&draws, false);
+                let xray = self.translucent_order(&draws, true);
+                if !glass.is_empty() || !xray.is_empty() {
                     pass.set_pipeline(&self.blend_pipeline);
-                    self.stats.draws += self.issue(&mut pass, &draws, glass);
+                    self.stats.draws += self.issue(&mut pass, &draws, glass, false);
+                    self.stats.draws += self.issue(&mut pass, &draws, xray, true);
                 }
             }
         }
@@ -555,12 +518,14 @@ impl GpuRenderer {
     }
 
     /// Issues the draws `order` picks from `draws`, in that order, into
-    /// `pass`, whose pipeline is set; returns how many.
+    /// `pass`, whose pipeline is set: their opaque triangles, or their
+    /// x-rayed ones with their x-ray records when `xray`; returns how many.
     fn issue(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         draws: &[(usize, Slot)],
         order: impl IntoIterator<Item = usize>,
+        xray: bool,
     ) -> u64 {
         let mut issued = 0;
         let mut bound = None;
@@ -582,8 +547,13 @@ impl GpuRenderer {
             let isize = if s.index_u32 { 4 } else { 2 };
             let first = ((s.alloc.offset + u64::from(s.vertex_count) * 16) / isize as u64) as u32;
             let base = (s.alloc.offset / 16) as i32;
-            let k32 = k as u32;
-            match self.partial.get(&self.frame_draws[draws[k].0].rep) {
+            let rep = self.frame_draws[draws[k].0].rep;
+            let (k32, ranges) = if xray {
+                ((draws.len() + k) as u32, self.parts.xray(rep))
+            } else {
+                (k as u32, self.parts.opaque(rep))
+            };
+            match ranges {
                 None => pass.draw_indexed(first..first + s.index_count, base, k32..k32 + 1),
                 Some(ranges) => {
                     for r in ranges {
@@ -600,14 +570,21 @@ impl GpuRenderer {
     }
 
     /// The translucent pass's draws (indices into `draws`), back to front
-    /// ([`back_to_front`]).
-    fn translucent_order(&self, draws: &[(usize, Slot)]) -> Vec<usize> {
+    /// ([`back_to_front`]): the reps with a translucent colour, or the
+    /// x-rayed ones when `xray`.
+    fn translucent_order(&self, draws: &[(usize, Slot)], xray: bool) -> Vec<usize> {
         let eye = self.view.as_ref().map_or(Vec3::ZERO, |v| v.pose.position);
         back_to_front(
             eye,
-            draws.iter().map(|(_, s)| {
+            draws.iter().map(|(i, s)| {
                 let half = Vec3::from(s.extent()) / 2.0;
-                s.translucent.then(|| Vec3::from(s.quant_min) + half)
+                let rep = self.frame_draws[*i].rep;
+                let take = if xray {
+                    self.parts.xray(rep).is_some()
+                } else {
+                    s.translucent
+                };
+                take.then(|| Vec3::from(s.quant_min) + half)
             }),
         )
     }
@@ -624,8 +601,8 @@ impl GpuRenderer {
 }
 
 impl Renderer for GpuRenderer {
-    fn set_partial(&mut self, ranges: &[(RepId, Vec<std::ops::Range<u32>>)]) {
-        self.partial = ranges.iter().cloned().collect();
+    fn set_parts(&mut self, parts: &engine::hide::DrawParts) {
+        self.parts = Parts::new(parts);
     }
 
     fn begin_frame(&mut self, view: &View) {

@@ -70,9 +70,67 @@ fn a_merged_leaf_in_part_hidden_draws_the_shown_runs_of_its_finest_rep() {
     assert_eq!(h.nodes()[3], NodeVis::Mixed);
     let finest = s.nodes[3].first_rep + s.nodes[3].rep_count - 1;
     let shown: Vec<std::ops::Range<u32>> = std::iter::once(0..1).collect();
-    assert_eq!(h.triangle_ranges(), [(finest, shown)]);
+    assert_eq!(h.parts().opaque, [(finest, shown)]);
     // Both of its objects hidden: the leaf leaves.
     let h = Hiding::new(&s, &t, |k| k <= 1);
     assert_eq!(h.nodes()[3], NodeVis::Hidden);
-    assert!(h.triangle_ranges().is_empty());
+    assert!(h.parts().opaque.is_empty());
+}
+
+#[test]
+fn xrayed_nodes_stay_in_the_front_drawn_translucent_and_mixed_ones_split() {
+    use crate::tree::Look;
+    let runs = vec![
+        Run {
+            object: 0,
+            tri_end: 1,
+        },
+        Run {
+            object: 1,
+            tri_end: 2,
+        },
+    ];
+    let (s, t) = scene(&[(3, runs)], 4);
+    let obj = |n: usize| s.nodes[n].object;
+    // Leaf 3 merges objects 0 (shown) and 1 (x-rayed), which leaf 4 also
+    // names; leaf 5's object is x-rayed, leaf 6's hidden.
+    let h = Hiding::with_looks(&s, &t, |k| {
+        if k == 1 || k == obj(5) {
+            Look::XRay
+        } else if k == obj(6) {
+            Look::Hidden
+        } else {
+            Look::Shown
+        }
+    });
+    use NodeVis::*;
+    assert_eq!(h.nodes(), [Mixed, Mixed, Mixed, Mixed, XRay, XRay, Hidden]);
+    assert_eq!((h.hidden_objects(), h.xray_objects()), (1, 2));
+    let finest = |n: usize| s.nodes[n].first_rep + s.nodes[n].rep_count - 1;
+    let reps = |n: usize| s.nodes[n].first_rep..s.nodes[n].first_rep + s.nodes[n].rep_count;
+    // The merged leaf: its shown run opaque, its x-rayed run translucent.
+    let mut opaque = vec![(finest(3), std::iter::once(0..1).collect::<Vec<_>>())];
+    let mut xray = vec![(finest(3), std::iter::once(1..2).collect::<Vec<_>>())];
+    // Every rep of the x-rayed leaves: nothing opaque, all of it x-rayed.
+    for r in reps(4).chain(reps(5)) {
+        opaque.push((r, vec![]));
+        xray.push((r, vec![WHOLE]));
+    }
+    opaque.sort_by_key(|(r, _)| *r);
+    xray.sort_by_key(|(r, _)| *r);
+    assert_eq!(h.parts().opaque, opaque);
+    assert_eq!(h.parts().xray, xray);
+    // A group whose leaves are all x-rayed is x-rayed: its HLOD is drawn
+    // translucent.
+    let h = Hiding::with_looks(&s, &t, |k| {
+        if k == obj(5) || k == obj(6) {
+            Look::XRay
+        } else {
+            Look::Shown
+        }
+    });
+    assert_eq!(h.nodes()[2], XRay);
+    for r in reps(2) {
+        assert!(h.parts().xray.iter().any(|(x, v)| *x == r && *v == [WHOLE]));
+    }
 }

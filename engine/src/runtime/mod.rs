@@ -281,7 +281,7 @@ impl Walkthrough {
     /// Hides elements from the next frame on: a node whose objects are all
     /// hidden leaves P_R's front and every front P_I plans from (they share
     /// the front index); see [`crate::hide`]. The renderer draws a merged
-    /// leaf in part from [`crate::hide::Hiding::triangle_ranges`].
+    /// leaf in part from [`crate::hide::Hiding::parts`].
     pub fn set_hiding(&mut self, hiding: &crate::hide::Hiding) {
         self.select.index().set_visibility(hiding.nodes());
     }

@@ -126,11 +126,12 @@ impl FrontSelect {
         }
     }
 
-    /// A rep drawn as itself this frame (for the occluders).
+    /// A rep drawn as itself this frame (for the occluders: not one the
+    /// section cuts, nor one drawn x-rayed or in part).
     pub(super) fn drawn(&mut self, r: RepId, rec: &RepRecord, payload: &Arc<[u8]>) {
         if let Some(c) = &mut self.occlusion {
             let (mn, mx) = self.index.node_box(rec.node);
-            if self.section.keeps_whole_box(mn, mx) {
+            if self.section.keeps_whole_box(mn, mx) && self.index.all_shown(rec.node) {
                 c.drawn(r, rec, payload, (mn, mx));
             }
         }

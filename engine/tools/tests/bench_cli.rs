@@ -605,3 +605,47 @@ fn the_duplex_is_walked_with_two_percent_resident() {
     let path = std::fs::read_to_string(d.join("o/path.txt")).unwrap();
     assert!(path.lines().filter(|l| !l.starts_with('#')).count() >= 240);
 }
+
+/// `--path-kind interior` walks the walk section where the scene has one,
+/// and finds storeys and rooms from the geometry (`rooms`) where it has
+/// none, saying so.
+#[test]
+fn interior_paths_walk_the_walk_section_or_say_they_cannot() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let model = e2e_tests::data_dir().join("AC14-FZK-Haus.glb");
+    let without = hlod_builder::BuildParams {
+        walk_cell: 0.0,
+        ..Default::default()
+    };
+    hlod_builder::build::build_file(&model, &d.join("walk.hlod"), &Default::default(), false)
+        .unwrap();
+    hlod_builder::build::build_file(&model, &d.join("flat.hlod"), &without, false).unwrap();
+    for (scene, line) in [
+        ("walk.hlod", "walk path: storeys at"),
+        ("flat.hlod", "rooms path:"),
+    ] {
+        let out = bench(
+            d,
+            &[
+                scene,
+                "--path-kind",
+                "interior",
+                "--frames",
+                "60",
+                "--modes",
+                "incore",
+                "--out",
+                "o",
+            ],
+        );
+        let so = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(so.contains(line), "{scene}: {so}");
+        assert_eq!(so.contains("no walk section"), scene == "flat.hlod", "{so}");
+    }
+}

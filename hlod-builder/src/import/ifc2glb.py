@@ -1,7 +1,8 @@
 # IFC to glTF for hlod-build: IfcOpenShell's geometry iterator, one node per
 # IfcProduct with a shape, named "Class:Name:GlobalId" (the names the
 # importer reads the IFC class from, as BIM exports write them), its
-# GlobalId, type, name and storey in the node's extras. Products that share a
+# GlobalId, type, name, storey (and its elevation), building and site in the
+# node's extras. Products that share a
 # representation share a mesh; each mesh has a primitive per material, its
 # colour and transparency from the IFC styles. IFC's Z-up becomes glTF's Y-up
 # in a root node. Single-threaded and in file order, so that the same IFC
@@ -24,14 +25,26 @@ except ImportError as e:
     sys.exit(3)
 
 
-def storey_of(product):
+def spatial_of(product):
+    """The storey, building and site above a product (or that it is), and the
+    storey's elevation: the model tree's levels."""
+    out = {}
     try:
-        c = ifcopenshell.util.element.get_container(product)
-        while c is not None and not c.is_a("IfcBuildingStorey"):
+        if product.is_a("IfcSpatialStructureElement"):
+            c = product
+        else:
+            c = ifcopenshell.util.element.get_container(product)
+        while c is not None:
+            for cls, key in (("IfcBuildingStorey", "storey"), ("IfcBuilding", "building"),
+                             ("IfcSite", "site")):
+                if c.is_a(cls) and key not in out and c.Name:
+                    out[key] = c.Name
+                    if key == "storey" and getattr(c, "Elevation", None) is not None:
+                        out["storey_elevation"] = float(c.Elevation)
             c = ifcopenshell.util.element.get_aggregate(c)
-        return c.Name if c is not None else None
     except Exception:
-        return None
+        pass
+    return out
 
 
 def main(src, out):
@@ -124,9 +137,7 @@ def main(src, out):
                 extras = {"GlobalId": guid, "type": cls}
                 if name:
                     extras["Name"] = name
-                storey = storey_of(product)
-                if storey:
-                    extras["storey"] = storey
+                extras.update(spatial_of(product))
                 node["extras"] = extras
                 nodes.append(node)
             if not it.next():

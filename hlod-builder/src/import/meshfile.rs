@@ -188,6 +188,7 @@ fn assemble(parts: Vec<Part>, warnings: &mut Vec<String>) -> Assembled {
             name: part.name,
             node: None,
             instance: None,
+            parents: std::sync::Arc::from([]),
         });
     }
     Assembled {

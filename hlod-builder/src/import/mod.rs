@@ -97,6 +97,9 @@ pub struct Instance {
     pub node: Option<usize>,
     /// Its index among the node's `EXT_mesh_gpu_instancing` instances.
     pub instance: Option<u32>,
+    /// The glTF nodes above `node`, outermost first (the model tree's
+    /// groups where the file carries no IFC structure).
+    pub parents: std::sync::Arc<[usize]>,
 }
 
 /// The imported scene: meshes in their local space and their placements.
@@ -118,6 +121,8 @@ pub struct Imported {
     /// name is its instances').
     pub mesh_info: Vec<(Option<String>, Option<Value>)>,
     pub node_extras: Vec<Option<Value>>,
+    /// Each glTF node's name.
+    pub node_names: Vec<Option<String>>,
     /// What a build of it records as its source ([`crate::cache::key`];
     /// zero unless the builder sets it).
     pub source_key: [u8; 16],
@@ -178,6 +183,15 @@ impl Imported {
         }
         if let Some(k) = inst.instance {
             o.insert("instance".into(), k.into());
+        }
+        if !inst.parents.is_empty() {
+            let names: Vec<Value> = (inst.parents.iter())
+                .map(|&p| match self.node_names.get(p) {
+                    Some(Some(n)) => n.clone().into(),
+                    _ => format!("nodes[{p}]").into(),
+                })
+                .collect();
+            o.insert("parents".into(), names.into());
         }
         o.insert("mesh".into(), inst.mesh.into());
         if let Some((name, extras)) = self.mesh_info.get(inst.mesh) {
@@ -276,6 +290,7 @@ fn assemble(
             .map(|m| (m.name.clone(), m.extras.clone()))
             .collect(),
         node_extras: doc.nodes.iter().map(|n| n.extras.clone()).collect(),
+        node_names: doc.nodes.iter().map(|n| n.name.clone()).collect(),
         ..Imported::default()
     };
     for m in 0..doc.meshes.len() {
@@ -339,6 +354,7 @@ fn assemble(
                 },
                 node: p.node,
                 instance: p.instance,
+                parents: p.parents,
             }
         })
         .collect();

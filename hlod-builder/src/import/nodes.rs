@@ -1,6 +1,8 @@
 //! The node hierarchy walked in `f64`: world transforms, `EXT_mesh_gpu_instancing`
 //! instances, cycles, and transforms that leave the representable range.
 
+use std::sync::Arc;
+
 use glam::{DMat4, DQuat, DVec3};
 
 use super::access::{self, Buffers};
@@ -10,6 +12,8 @@ use crate::mesh::Aabb;
 /// Coordinates beyond this (in scene units) are taken as a broken
 /// transform: no real model reaches a million kilometres.
 pub const MAX_COORD: f64 = 1e9;
+/// Most glTF nodes above an object that its description names.
+pub const MAX_PARENTS: usize = 32;
 /// Most placements (objects) one file may make.
 pub const MAX_PLACEMENTS: usize = 20_000_000;
 
@@ -22,6 +26,9 @@ pub struct Placement {
     pub node: Option<usize>,
     /// Its index among the node's `EXT_mesh_gpu_instancing` instances.
     pub instance: Option<u32>,
+    /// The nodes above `node` on the path the walk took, outermost first
+    /// (shared by the placements under one parent).
+    pub parents: Arc<[usize]>,
 }
 
 /// The local transform of a node (matrix, or T * R * S).
@@ -127,6 +134,7 @@ pub fn place(
                     world: DMat4::IDENTITY,
                     node: None,
                     instance: None,
+                    parents: Arc::from([]),
                 });
             }
         }
@@ -165,23 +173,23 @@ pub fn place(
     // Depth-first, with the nodes on the current path marked: a child on
     // the path is a cycle. A node with two parents is placed under each.
     enum Step {
-        Enter(usize, DMat4),
+        Enter(usize, DMat4, Arc<[usize]>),
         Leave(usize),
     }
     let mut on_path = vec![false; n];
     let mut stack: Vec<Step> = roots
         .iter()
         .rev()
-        .map(|&r| Step::Enter(r, DMat4::IDENTITY))
+        .map(|&r| Step::Enter(r, DMat4::IDENTITY, Arc::from([])))
         .collect();
     let mut visits = 0usize;
     while let Some(step) = stack.pop() {
-        let (i, parent) = match step {
+        let (i, parent, parents) = match step {
             Step::Leave(i) => {
                 on_path[i] = false;
                 continue;
             }
-            Step::Enter(i, p) => (i, p),
+            Step::Enter(i, p, up) => (i, p, up),
         };
         if on_path[i] {
             return Err(format!(
@@ -208,6 +216,7 @@ pub fn place(
                             world,
                             node: Some(i),
                             instance: None,
+                            parents: parents.clone(),
                         });
                     } else {
                         warnings.push(out_of_range(i, None, &world));
@@ -222,6 +231,7 @@ pub fn place(
                                 world: w,
                                 node: Some(i),
                                 instance: Some(k as u32),
+                                parents: parents.clone(),
                             });
                         } else {
                             warnings.push(out_of_range(i, Some(k), &w));
@@ -235,8 +245,17 @@ pub fn place(
         }
         on_path[i] = true;
         stack.push(Step::Leave(i));
-        for &c in node.children.iter().rev() {
-            stack.push(Step::Enter(c, world));
+        if !node.children.is_empty() {
+            // The outermost MAX_PARENTS are kept: a chain of a million
+            // nodes must not write a million names per object.
+            let below: Arc<[usize]> = if parents.len() < MAX_PARENTS {
+                parents.iter().copied().chain([i]).collect()
+            } else {
+                parents.clone()
+            };
+            for &c in node.children.iter().rev() {
+                stack.push(Step::Enter(c, world, below.clone()));
+            }
         }
     }
     Ok(out)

@@ -281,55 +281,23 @@ impl Tileset<'_> {
     }
 }
 
-/// Pulls the IFC type and GlobalId out of an object's description: from
-/// `extras` keys (IfcOpenShell's `type`/`GlobalId`, and common spellings),
-/// else from an IFC-style name `IfcClass:Name:GlobalId`.
+/// Pulls the IFC type and GlobalId out of an object's description
+/// ([`engine::tree::Described`]: `extras` keys, IfcOpenShell's
+/// `type`/`GlobalId` and common spellings, else an IFC-style name
+/// `IfcClass:Name:GlobalId`).
 pub fn element(object: u32, info: &str) -> Element {
-    let v: Value = serde_json::from_str(info).unwrap_or(Value::Null);
-    let text = |x: Option<&Value>| match x {
-        Some(Value::String(s)) => s.clone(),
-        Some(Value::Number(n)) => n.to_string(),
-        _ => String::new(),
-    };
-    let find = |keys: &[&str]| -> String {
-        for sect in ["extras", "mesh_extras"] {
-            if let Some(Value::Object(m)) = v.get(sect) {
-                for (k, val) in m {
-                    if keys.contains(&k.to_ascii_lowercase().as_str()) {
-                        let t = text(Some(val));
-                        if !t.is_empty() {
-                            return t;
-                        }
-                    }
-                }
-            }
-        }
-        String::new()
-    };
-    let name = text(v.get("name"));
-    let mut ifc_type = find(&[
-        "type", "ifctype", "ifc_type", "ifcclass", "class", "category",
-    ]);
-    let mut global_id = find(&["globalid", "global_id", "guid", "ifcguid", "ifc_guid"]);
-    let parts: Vec<&str> = name.split(':').collect();
-    if parts.len() >= 3 && parts[0].starts_with("Ifc") {
-        if ifc_type.is_empty() {
-            ifc_type = parts[0].to_string();
-        }
-        if global_id.is_empty() && parts[parts.len() - 1].len() == 22 {
-            global_id = parts[parts.len() - 1].to_string();
-        }
-    }
+    let d = engine::tree::Described::parse(info);
+    let described = serde_json::from_str::<Value>(info).is_ok_and(|v| !v.is_null());
     Element {
         object,
-        mesh_name: text(v.get("mesh_name")),
-        name,
-        ifc_type,
-        global_id,
-        info: if v.is_null() {
-            String::new()
-        } else {
+        mesh_name: d.mesh_name,
+        name: d.name,
+        ifc_type: d.ifc_type,
+        global_id: d.global_id,
+        info: if described {
             info.to_string()
+        } else {
+            String::new()
         },
     }
 }

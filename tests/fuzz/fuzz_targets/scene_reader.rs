@@ -24,6 +24,19 @@ fuzz_target!(|data: &[u8]| {
             for k in 0..objects.len() as u32 {
                 let _ = objects.info(k);
             }
+            // The model tree of whatever the descriptions say, and the
+            // hiding and x-ray of its first group.
+            let drawn = engine::tree::drawn_objects(scene.skeleton(), &objects);
+            let tree = engine::tree::ModelTree::new(&objects, "fuzz", &drawn);
+            assert_eq!(tree.validate(), Ok(()));
+            let mut looks = Vec::new();
+            if let Some(&g) = tree.groups()[0].children.first() {
+                tree.apply(&mut looks, tree.objects(g), engine::tree::Op::XRayOthers);
+            }
+            let hiding = engine::hide::Hiding::with_looks(scene.skeleton(), &objects, |k| {
+                looks.get(k as usize).copied().unwrap_or_default()
+            });
+            assert_eq!(hiding.nodes().len(), scene.skeleton().nodes.len());
         }
         let _ = scene.read_walk_bytes();
         let source = scene.source().clone();

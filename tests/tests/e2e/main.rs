@@ -19,6 +19,7 @@ mod render;
 mod scenes;
 mod section;
 mod tiles3d;
+mod tree;
 mod vdt;
 mod vdt_runtime;
 mod vdt_scene;

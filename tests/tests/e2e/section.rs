@@ -84,7 +84,7 @@ fn a_section_cuts_away_what_it_removes_and_caps_the_cut() {
 }
 
 #[test]
-fn a_hidden_element_of_a_merged_leaf_is_not_drawn() {
+fn a_hidden_element_of_a_merged_leaf_is_not_drawn_and_an_xrayed_one_hides_nothing() {
     use engine::hide::{Hiding, NodeVis};
     use engine::render::Renderer;
     // The same two cubes: small enough to share one merged leaf.
@@ -100,7 +100,7 @@ fn a_hidden_element_of_a_merged_leaf_is_not_drawn() {
     let (skel, source, data) = load(&path);
     let hiding = Hiding::new(&skel, &table, |k| k == grey);
     let leaves = skel.nodes.iter().filter(|n| n.child_count == 0).count();
-    let test = "a_hidden_element_of_a_merged_leaf_is_not_drawn";
+    let test = "a_hidden_element_of_a_merged_leaf_is_not_drawn_and_an_xrayed_one_hides_nothing";
     let Some(mut r) = renderer(test, data, Colouring::Object) else {
         return;
     };
@@ -113,7 +113,7 @@ fn a_hidden_element_of_a_merged_leaf_is_not_drawn() {
         "grey cube {before:?}"
     );
     walk.set_hiding(&hiding);
-    r.set_partial(hiding.triangle_ranges());
+    r.set_parts(hiding.parts());
     let after = shot(&mut walk, &mut r, &eye).pixel(cx, cy);
     assert!(
         after[1] > 100 && after[0] < 40,
@@ -122,10 +122,25 @@ fn a_hidden_element_of_a_merged_leaf_is_not_drawn() {
     // One merged leaf, drawn in part from its finest rep.
     assert_eq!(leaves, 1);
     assert_eq!(hiding.nodes()[0], NodeVis::Mixed);
-    assert_eq!(hiding.triangle_ranges().len(), 1);
+    assert_eq!(hiding.parts().opaque.len(), 1);
+    // X-rayed: the green cube shows through a pale translucent grey one.
+    let xray = Hiding::with_looks(&skel, &table, |k| {
+        if k == grey {
+            engine::tree::Look::XRay
+        } else {
+            engine::tree::Look::Shown
+        }
+    });
+    walk.set_hiding(&xray);
+    r.set_parts(xray.parts());
+    let through = shot(&mut walk, &mut r, &eye).pixel(cx, cy);
+    assert!(
+        through[1] > through[0] + 40 && through[2] > through[0] && through != after,
+        "green through pale blue {through:?} (hidden: {after:?})"
+    );
     // Shown again.
     walk.set_hiding(&Hiding::none(skel.nodes.len()));
-    r.set_partial(&[]);
+    r.set_parts(&Default::default());
     assert_eq!(shot(&mut walk, &mut r, &eye).pixel(cx, cy), before);
     assert!(r.context().take_errors().is_empty());
 }

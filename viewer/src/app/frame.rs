@@ -155,6 +155,7 @@ impl App {
                     o.to_array(),
                     d.to_array()
                 );
+                self.ui.tree.reveal = sel.object;
                 self.selection = Some(sel);
             }
             Ok(None) => {

@@ -11,6 +11,7 @@ use anyhow::{Context, Result};
 use engine::camera::Pose;
 use engine::measure::{Measurement, SnapKind, snap};
 use engine::section::Section;
+use engine::tree::{Look, Op};
 use glam::Vec3;
 
 use super::App;
@@ -31,10 +32,14 @@ pub(super) struct Measuring {
 }
 
 impl App {
-    /// What follows a scene's opening: `--viewpoint`, then `--find`.
+    /// What follows a scene's opening: `--viewpoint`, `--isolate`, `--xray`
+    /// and `--hide`, then `--find`.
     pub(super) fn after_open(&mut self) {
         self.walking = None;
+        // The last scene's search results name its objects.
+        self.ui.tree = Default::default();
         self.apply_viewpoint();
+        self.tree_cli();
         if let Some(t) = self.args.find.clone() {
             self.find(&t);
         }
@@ -76,6 +81,7 @@ impl App {
             found.len(),
             first.name
         );
+        self.ui.tree.reveal = first.object;
         self.selection = Some(first);
         self.play = None;
         self.ui_dirty = true;
@@ -222,9 +228,12 @@ impl App {
                     .iter()
                     .filter(|g| ids.iter().any(|i| i.as_ref() == Some(g)))
                     .count();
-                (ids.iter().map(|i| !shown(i)).collect::<Vec<bool>>(), found)
+                let looks = ids
+                    .iter()
+                    .map(|i| if shown(i) { Look::Shown } else { Look::Hidden });
+                (looks.collect::<Vec<Look>>(), found)
             });
-            match done.and_then(|(hidden, found)| Ok((sess.set_hidden(hidden)?, found))) {
+            match done.and_then(|(looks, found)| Ok((sess.set_looks(looks)?.0, found))) {
                 Ok((n, found)) => println!(
                     "{}: {n} element(s) hidden ({} of its {} listed component(s) found in the scene)",
                     path.display(),
@@ -237,37 +246,29 @@ impl App {
     }
 
     /// `H` hides the selected element, `I` isolates it (hides every other
-    /// one), `U` shows everything again.
+    /// one), `X` x-rays it, `U` shows everything again.
     pub(super) fn hide_key(&mut self, key: char) {
-        let Some(sess) = &mut self.session else {
-            return;
-        };
         let selected = self.selection.as_ref().and_then(|s| s.object);
-        let count = sess.picker().map(|p| p.objects().len()).unwrap_or(0);
-        let mut hidden = sess.hidden().to_vec();
-        hidden.resize(count, false);
-        match (key, selected) {
-            ('u', _) => hidden.clear(),
-            ('h', Some(k)) => hidden[k as usize] = true,
-            ('i', Some(k)) => hidden
-                .iter_mut()
-                .enumerate()
-                .for_each(|(i, h)| *h = i != k as usize),
+        let op = match (key, selected) {
+            ('u', _) => None,
+            ('h', Some(k)) => Some((Op::Hide, k)),
+            ('i', Some(k)) => Some((Op::Isolate, k)),
+            ('x', Some(k)) => Some((Op::XRay, k)),
             _ => {
-                self.report("H hides and I isolates the selected element: select one first".into());
+                self.report(
+                    "H hides, I isolates and X x-rays the selected element: select one first"
+                        .into(),
+                );
                 return;
             }
+        };
+        match op {
+            Some((op, k)) => self.apply_op(op, &[k], "the selected element"),
+            None => self.set_looks(Vec::new()),
         }
-        match sess.set_hidden(hidden) {
-            Ok(n) => {
-                println!("{n} element(s) hidden");
-                if key == 'h' {
-                    self.selection = None;
-                }
-            }
-            Err(e) => self.report(format!("hide: {e:#}")),
+        if key == 'h' || key == 'x' {
+            self.selection = None;
         }
-        self.ui_dirty = true;
     }
 
     /// The view as a BCF viewpoint, written to `to` (or to the next
@@ -279,7 +280,7 @@ impl App {
         let to = to.unwrap_or_else(|| PathBuf::from(format!("hlod-view-{:06}.bcfv", self.frames)));
         // Hidden elements: listed as exceptions to a visible default, or
         // the shown ones to a hidden default when most are hidden.
-        let hidden = sess.hidden().to_vec();
+        let hidden: Vec<bool> = sess.looks().iter().map(|l| *l == Look::Hidden).collect();
         let n_hidden = hidden.iter().filter(|h| **h).count();
         let default_visible = 2 * n_hidden <= hidden.len();
         let exceptions = if n_hidden == 0 {

@@ -20,10 +20,12 @@ pub struct Args {
     pub path: Option<PathBuf>,
     /// Generated path when no --path: flythrough, approach, orbit,
     /// approach-orbit, random (a hostile random walk with jumps, for soak
-    /// runs; see --seed), interior (a walk at eye height through a
-    /// building's storeys and rooms, found from its geometry; see --seed)
-    /// or walk (an interior walk a walker walks on the scene's walk
-    /// section: never through geometry, every storey it reports reached).
+    /// runs; see --seed), interior or walk (a walk at eye height that a
+    /// walker walks on the scene's walk section, from a place indoors to
+    /// each storey in turn: never through geometry, every storey it reports
+    /// reached; see --seed) or rooms (the earlier interior walk, storeys and
+    /// rooms found from the geometry, which may pass walls and jump storeys;
+    /// what interior falls back to on a scene without a walk section).
     #[arg(long, default_value = "flythrough")]
     pub path_kind: String,
     /// Seed of the random path.
@@ -160,6 +162,10 @@ pub struct Args {
     /// elements leave the front and are not fetched.
     #[arg(long, value_name = "TEXT")]
     pub hide: Vec<String>,
+    /// X-ray every element whose description contains this text
+    /// (repeatable): drawn translucent, kept in the front, no occluder.
+    #[arg(long, value_name = "TEXT")]
+    pub xray: Vec<String>,
     /// Walk the path instead of flying it: each frame a walker (eye at
     /// 1.6 m, gravity, doors open) steers towards the path's position and
     /// collides with the scene's walk section; prints what walking costs.

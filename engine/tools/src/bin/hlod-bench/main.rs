@@ -92,23 +92,51 @@ fn run(a: Args) -> Result<()> {
         SceneHandle::open_cached(&a.scene, cache.as_ref()).with_context(|| scene_name.clone())?;
     let scene = SceneFile::from_source(handle.raw()?).with_context(|| scene_name.clone())?;
     let skel = Arc::new(scene.skeleton().clone());
-    let hiding = if a.hide.is_empty() {
+    let hiding = if a.hide.is_empty() && a.xray.is_empty() {
         None
     } else {
         let table = scene.read_objects().with_context(|| scene_name.clone())?;
-        let h = engine::hide::Hiding::new(&skel, &table, |k| {
-            table
-                .info(k)
-                .is_some_and(|t| a.hide.iter().any(|x| t.contains(x.as_str())))
+        let has = |k: u32, texts: &[String]| {
+            (table.info(k)).is_some_and(|t| texts.iter().any(|x| t.contains(x.as_str())))
+        };
+        let h = engine::hide::Hiding::with_looks(&skel, &table, |k| {
+            if has(k, &a.hide) {
+                engine::tree::Look::Hidden
+            } else if has(k, &a.xray) {
+                engine::tree::Look::XRay
+            } else {
+                engine::tree::Look::Shown
+            }
         });
         println!(
-            "--hide: {} of {} elements hidden",
+            "--hide/--xray: {} of {} elements hidden, {} x-rayed",
             h.hidden_objects(),
-            table.len()
+            table.len(),
+            h.xray_objects()
         );
         Some(h)
     };
-    let interior = if a.path.is_none() && a.path_kind == "interior" {
+    // `interior` is walked on the walk section where the scene has one
+    // (never through geometry, every storey it reports reached); `rooms`,
+    // and `interior` on a scene built without one, find storeys and rooms
+    // from the geometry.
+    let has_walk = || {
+        (scene.read_walk_index())
+            .map(|w| w.is_some())
+            .with_context(|| scene_name.clone())
+    };
+    let kind = match a.path_kind.as_str() {
+        "interior" if a.path.is_none() && !has_walk()? => {
+            println!(
+                "{scene_name}: no walk section (built before format version 5): the interior \
+                 path is found from the geometry (--path-kind rooms); rebuild the scene to walk it"
+            );
+            "rooms"
+        }
+        "interior" => "walk",
+        k => k,
+    };
+    let interior = if a.path.is_none() && kind == "rooms" {
         // Openings' voids, spaces and doors are walked through.
         let (tris, passable) =
             engine::interior::obstacle_triangles(&scene).with_context(|| scene_name.clone())?;
@@ -117,13 +145,13 @@ fn run(a: Args) -> Result<()> {
             ..Default::default()
         };
         let path = engine::interior::interior_path(&tris, a.frames, &p)
-            .with_context(|| format!("{scene_name}: interior path"))?;
+            .with_context(|| format!("{scene_name}: rooms path"))?;
         println!(
-            "interior path: storeys at {:?}, walkable cells {:?}, {} climbs up stairs, {} jumps between storeys ({passable} openings, spaces and doors walked through)",
+            "rooms path: storeys at {:?}, walkable cells {:?}, {} climbs up stairs, {} jumps between storeys ({passable} openings, spaces and doors walked through)",
             path.storeys, path.cells, path.climbs, path.jumps
         );
         Some(path.poses)
-    } else if a.path.is_none() && a.path_kind == "walk" {
+    } else if a.path.is_none() && kind == "walk" {
         Some(walking::tour_path(
             handle.raw()?,
             &scene_name,
@@ -184,7 +212,7 @@ fn run(a: Args) -> Result<()> {
                 "approach-orbit" => PathKind::ApproachOrbit,
                 "random" => PathKind::Random { seed: a.seed },
                 k => bail!(
-                    "--path-kind {k:?}: use flythrough, approach, orbit, approach-orbit, random, interior or walk"
+                    "--path-kind {k:?}: use flythrough, approach, orbit, approach-orbit, random, interior, walk or rooms"
                 ),
             };
             generate_path(kind, min, max, a.frames)
@@ -372,7 +400,7 @@ fn run(a: Args) -> Result<()> {
                 )?;
                 r.capture_every(a.psnr_every);
                 if let Some(h) = &hiding {
-                    engine::render::Renderer::set_partial(&mut r, h.triangle_ranges());
+                    engine::render::Renderer::set_parts(&mut r, h.parts());
                 }
                 Some(r)
             }
