@@ -417,3 +417,48 @@ fn translucent_surfaces_blend_over_what_is_behind_and_hide_behind_opaque_ones() 
     );
     assert!(r.context().take_errors().is_empty());
 }
+
+/// The BIM views on a real house, as golden images: the FZK-Haus whole,
+/// with its two roof slabs x-rayed (drawn translucent over the attic,
+/// hiding nothing), and cut open at 1.5 m (the cut capped).
+#[test]
+fn golden_images_of_a_house_xrayed_and_cut() {
+    use engine::hide::Hiding;
+    use engine::render::Renderer;
+    use engine::tree::Look;
+    let (_dir, scene) = build(&e2e_tests::data_dir().join("AC14-FZK-Haus.glb"));
+    let (skel, source, data) = load(&scene);
+    let table = SceneFile::open(&scene).unwrap().read_objects().unwrap();
+    let roofs = ["07Enbsqm9C7AQC9iyBwfSD", "2IxUUNUVPB6Ob$eicCfP2N"];
+    let is_roof = |k: u32| roofs.iter().any(|g| table.info(k).unwrap().contains(g));
+    let xray = Hiding::with_looks(&skel, &table, |k| {
+        if is_roof(k) { Look::XRay } else { Look::Shown }
+    });
+    assert_eq!(xray.xray_objects(), 2);
+    let pose = overview(&skel, Vec3::new(1.0, 0.9, 1.2));
+    let test = "golden_images_of_a_house_xrayed_and_cut";
+    let Some(mut r) = renderer(test, data, Colouring::Object) else {
+        return;
+    };
+    let mut walk =
+        Walkthrough::start(skel.clone(), source.clone(), params(Mode::Incore, 0, 1.0)).unwrap();
+    let whole = shot(&mut walk, &mut r, &pose);
+    check_golden("fzk-haus", &whole);
+    walk.set_hiding(&xray);
+    r.set_parts(xray.parts());
+    let xrayed = shot(&mut walk, &mut r, &pose);
+    check_golden("fzk-haus-roof-xray", &xrayed);
+    assert!(
+        whole.diff(&xrayed, 12).unwrap().pixels_over > 500,
+        "the roof looks different"
+    );
+    walk.set_hiding(&Hiding::none(skel.nodes.len()));
+    r.set_parts(&Default::default());
+    let mut p = params(Mode::Incore, 0, 1.0);
+    let cut = engine::section::Section::from_planes(&[(Vec3::new(0.0, 1.5, 0.0), Vec3::Y)]);
+    p.section = cut.unwrap();
+    let mut walk = Walkthrough::start(skel, source, p).unwrap();
+    let cut = shot(&mut walk, &mut r, &pose);
+    check_golden("fzk-haus-cut", &cut);
+    assert!(r.context().take_errors().is_empty());
+}
