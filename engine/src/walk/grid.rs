@@ -33,6 +33,17 @@ struct Pending {
 impl Pending {
     fn push(&mut self, cell: u16, s: Span) {
         self.columns = None;
+        // The triangles of one element mostly add to the cells just added
+        // to: a span that overlaps or touches the last one unsorted joins it.
+        if self.spans.len() > self.merged
+            && let Some((lc, l)) = self.spans.last_mut()
+            && *lc == cell
+            && u32::from(s.lo) <= u32::from(l.hi) + 1
+            && u32::from(l.lo) <= u32::from(s.hi) + 1
+        {
+            (l.lo, l.hi) = (l.lo.min(s.lo), l.hi.max(s.hi));
+            return;
+        }
         self.spans.push((cell, s));
         if self.spans.len() >= 2 * self.merged + 64 {
             self.compact();
@@ -40,11 +51,25 @@ impl Pending {
     }
 
     /// Sorts, and merges the spans of a cell that overlap or touch (the
-    /// union, whatever the order they came in).
+    /// union, whatever the order they came in). The spans merged last time
+    /// are still sorted: only those added since are sorted, then the two
+    /// runs are merged.
     fn compact(&mut self) {
-        self.spans.sort_unstable();
+        // The order of `(cell, lo, hi)`, compared as one integer.
+        self.spans[self.merged..].sort_unstable_by_key(|&(c, s)| {
+            (u64::from(c) << 32) | (u64::from(s.lo) << 16) | u64::from(s.hi)
+        });
+        let (a, b) = self.spans.split_at(self.merged);
         let mut out: Vec<(u16, Span)> = Vec::with_capacity(self.spans.len());
-        for &(c, s) in &self.spans {
+        let (mut i, mut j) = (0, 0);
+        while i < a.len() || j < b.len() {
+            let (c, s) = if j == b.len() || (i < a.len() && a[i] <= b[j]) {
+                i += 1;
+                a[i - 1]
+            } else {
+                j += 1;
+                b[j - 1]
+            };
             match out.last_mut() {
                 Some((lc, l)) if *lc == c && u32::from(s.lo) <= u32::from(l.hi) + 1 => {
                     l.hi = l.hi.max(s.hi);
@@ -215,28 +240,39 @@ impl SpanGrid {
             None => (z0, z1),
         };
         let c = g.cell;
-        let mut row = Vec::with_capacity(8);
-        let mut cell = Vec::with_capacity(10);
+        let tri = Poly::of(&t);
+        let rows = self.rows;
+        // The chunk last added to: most of a triangle's cells share one.
+        let mut current: Option<((i32, i32), &mut Pending)> = None;
         for z in z0..=z1 {
-            row.clear();
-            row.extend_from_slice(&t);
-            clip(&mut row, 2, z as f32 * c, true);
-            clip(&mut row, 2, (z + 1) as f32 * c, false);
-            if row.is_empty() {
+            let row = tri
+                .clip(2, z as f32 * c, true)
+                .clip(2, (z + 1) as f32 * c, false);
+            if row.n == 0 {
                 continue;
             }
-            let (rx0, rx1) = row.iter().fold((i64::MAX, i64::MIN), |(a, b), p| {
+            let (rx0, rx1) = row.points().iter().fold((i64::MAX, i64::MIN), |(a, b), p| {
                 (a.min(g.cell_of(p.x)), b.max(g.cell_of(p.x)))
             });
             for x in rx0.max(x0)..=rx1.min(x1) {
-                cell.clear();
-                cell.extend_from_slice(&row);
-                clip(&mut cell, 0, x as f32 * c, true);
-                clip(&mut cell, 0, (x + 1) as f32 * c, false);
-                if let Some((a, b)) = cell.iter().fold(None, |r: Option<(f32, f32)>, p| {
+                let cell = row
+                    .clip(0, x as f32 * c, true)
+                    .clip(0, (x + 1) as f32 * c, false);
+                if let Some((a, b)) = cell.points().iter().fold(None, |r: Option<(f32, f32)>, p| {
                     Some(r.map_or((p.y, p.y), |(a, b)| (a.min(p.y), b.max(p.y))))
                 }) {
-                    self.insert(layer, x, z, g.span(a, b));
+                    let Some((key, cell)) = locate(x, z) else {
+                        continue;
+                    };
+                    if rows.is_some_and(|(z0, z1)| key.1 < z0 || key.1 >= z1) {
+                        continue;
+                    }
+                    if current.as_ref().map(|(k, _)| *k) != Some(key) {
+                        current = Some((key, self.chunks.entry(key).or_default()));
+                    }
+                    if let Some((_, p)) = current.as_mut() {
+                        p.push((cell + layer as usize * CHUNK_AREA) as u16, g.span(a, b));
+                    }
                 }
             }
         }
@@ -344,35 +380,57 @@ impl SpanGrid {
     }
 }
 
-/// Sutherland–Hodgman: keeps the part of polygon `poly` with coordinate
-/// `axis` (0: x, 2: z) at least (`keep_above`) or at most `at`.
-fn clip(poly: &mut Vec<Vec3>, axis: usize, at: f32, keep_above: bool) {
-    let inside = |p: &Vec3| {
-        if keep_above {
-            p[axis] >= at
-        } else {
-            p[axis] <= at
-        }
-    };
-    let n = poly.len();
-    if n == 0 {
-        return;
+/// A convex polygon of at most 8 corners, on the stack: a triangle
+/// clipped by the four sides of a cell has at most 7.
+#[derive(Clone, Copy, Debug)]
+struct Poly {
+    p: [Vec3; 8],
+    n: usize,
+}
+
+impl Poly {
+    fn of(t: &[Vec3; 3]) -> Self {
+        let mut p = [Vec3::ZERO; 8];
+        p[..3].copy_from_slice(t);
+        Self { p, n: 3 }
     }
-    let mut out = Vec::with_capacity(n + 2);
-    for k in 0..n {
-        let (a, b) = (poly[k], poly[(k + 1) % n]);
-        let (ia, ib) = (inside(&a), inside(&b));
-        if ia {
-            out.push(a);
-        }
-        if ia != ib {
-            let t = (at - a[axis]) / (b[axis] - a[axis]);
-            let mut p = a + (b - a) * t;
-            p[axis] = at;
-            out.push(p);
-        }
+
+    fn points(&self) -> &[Vec3] {
+        &self.p[..self.n]
     }
-    *poly = out;
+
+    /// Sutherland–Hodgman: the part with coordinate `axis` (0: x, 2: z)
+    /// at least (`keep_above`) or at most `at`.
+    fn clip(&self, axis: usize, at: f32, keep_above: bool) -> Self {
+        let inside = |p: &Vec3| {
+            if keep_above {
+                p[axis] >= at
+            } else {
+                p[axis] <= at
+            }
+        };
+        let mut out = Self {
+            p: [Vec3::ZERO; 8],
+            n: 0,
+        };
+        let n = self.n;
+        for k in 0..n {
+            let (a, b) = (self.p[k], self.p[(k + 1) % n]);
+            let (ia, ib) = (inside(&a), inside(&b));
+            if ia && out.n < 8 {
+                out.p[out.n] = a;
+                out.n += 1;
+            }
+            if ia != ib && out.n < 8 {
+                let t = (at - a[axis]) / (b[axis] - a[axis]);
+                let mut p = a + (b - a) * t;
+                p[axis] = at;
+                out.p[out.n] = p;
+                out.n += 1;
+            }
+        }
+        out
+    }
 }
 
 impl SolidMap for SpanGrid {
