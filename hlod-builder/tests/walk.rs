@@ -397,3 +397,29 @@ fn door_openings_are_cut_out_of_whole_walls() {
     assert!(holes.len() >= 20, "{} door openings", holes.len());
     assert_eq!(solid, 0, "of {} door openings", holes.len());
 }
+
+/// A CAD part in millimetres (the 2CylinderEngine: 743 units across, 121,000
+/// triangles) gets a coarser grid than the 0.1 unit asked for (at most a
+/// million cells, or 8 per triangle) instead of a section 20 times larger
+/// than its geometry; the buildings keep their 0.1 m.
+#[test]
+fn a_model_in_millimetres_gets_a_coarser_walk_grid() {
+    let stats = |name: &str| {
+        let model = load(&data(name)).unwrap();
+        let mut out = std::io::Cursor::new(Vec::new());
+        let s = build_scene(&model, &mut out, &BuildParams::default(), false).unwrap();
+        (s.walk, out.into_inner().len() as u64)
+    };
+    let (w, file) = stats("2CylinderEngine/2CylinderEngine.gltf");
+    assert!(w.cell >= 0.4, "{w:?}");
+    // 41 MiB at 0.1 units (the file 2.2 MiB without it): now smaller than
+    // the rest of the file.
+    assert!(
+        w.bytes * 2 < file + w.bytes,
+        "{w:?} in a file of {file} bytes"
+    );
+    for house in ["AC14-FZK-Haus.glb", "Ifc2x3_Duplex_Architecture.glb"] {
+        let (w, _) = stats(house);
+        assert!((w.cell - 0.1).abs() < 1e-6, "{house}: {w:?}");
+    }
+}
