@@ -16,6 +16,7 @@ use std::ops::Range;
 
 use serde_json::Value;
 
+use crate::format::NONE;
 use crate::format::objects::ObjectTable;
 
 /// How one object is drawn.
@@ -58,7 +59,11 @@ impl Described {
     /// Reads an object's description; what it lacks stays empty (text that
     /// is not JSON describes nothing).
     pub fn parse(info: &str) -> Self {
-        let v: Value = serde_json::from_str(info).unwrap_or(Value::Null);
+        Self::of(&serde_json::from_str(info).unwrap_or(Value::Null))
+    }
+
+    /// What the description `v`, already parsed, says.
+    pub fn of(v: &Value) -> Self {
         let text = |x: Option<&Value>| match x {
             Some(Value::String(s)) => s.clone(),
             Some(Value::Number(n)) => n.to_string(),
@@ -491,26 +496,31 @@ impl ModelTree {
     }
 }
 
-/// Which objects some leaf draws (a one-object leaf or chunk names it, or
-/// a merged leaf's runs hold it); the others were left out by the build.
-pub fn drawn_objects(s: &crate::skeleton::Skeleton, table: &ObjectTable) -> Vec<bool> {
-    let mut drawn = vec![false; table.len()];
+/// The first leaf that draws each object (a one-object leaf or chunk names
+/// it, or a merged leaf's runs hold it), [`NONE`] for the objects the build
+/// left out.
+pub fn first_leaves(s: &crate::skeleton::Skeleton, table: &ObjectTable) -> Vec<u32> {
+    let mut leaf = vec![NONE; table.len()];
     for (i, node) in s
         .nodes
         .iter()
         .enumerate()
         .filter(|(_, n)| n.child_count == 0)
     {
-        if let Some(d) = drawn.get_mut(node.object as usize) {
-            *d = true;
-        }
-        for r in table.runs_of(i as u32) {
-            if let Some(d) = drawn.get_mut(r.object as usize) {
-                *d = true;
+        let runs = table.runs_of(i as u32).iter().map(|r| r.object);
+        for k in std::iter::once(node.object).chain(runs) {
+            if let Some(l) = leaf.get_mut(k as usize).filter(|l| **l == NONE) {
+                *l = i as u32;
             }
         }
     }
-    drawn
+    leaf
+}
+
+/// Which objects some leaf draws ([`first_leaves`]); the others were left
+/// out by the build.
+pub fn drawn_objects(s: &crate::skeleton::Skeleton, table: &ObjectTable) -> Vec<bool> {
+    first_leaves(s, table).iter().map(|&l| l != NONE).collect()
 }
 
 /// Each object's path of groups: the IFC spatial structure and type where

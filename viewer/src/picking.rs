@@ -14,6 +14,8 @@ use serde_json::Value;
 pub struct Picker {
     scene: SceneFile<std::sync::Arc<dyn ByteSource>>,
     objects: ObjectTable,
+    /// The first leaf drawing each object ([`engine::tree::first_leaves`]).
+    leaves: Vec<u32>,
 }
 
 /// What a click selected.
@@ -47,9 +49,17 @@ impl Picker {
         &self.objects
     }
 
+    /// Which objects some leaf draws (the others the build left out).
+    pub fn drawn(&self) -> Vec<bool> {
+        self.leaves
+            .iter()
+            .map(|&l| l != engine::format::NONE)
+            .collect()
+    }
+
     /// Object `k`'s GlobalId, if its description carries one.
     pub fn global_id(&self, k: u32) -> Option<String> {
-        let id = hlod_builder::tiles3d::element(k, self.objects.info(k)?).global_id;
+        let id = engine::tree::Described::parse(self.objects.info(k)?).global_id;
         (!id.is_empty()).then_some(id)
     }
 
@@ -58,7 +68,12 @@ impl Picker {
         let src = handle.raw().with_context(named)?;
         let scene = SceneFile::from_source(src).with_context(named)?;
         let objects = scene.read_objects().with_context(named)?;
-        Ok(Self { scene, objects })
+        let leaves = engine::tree::first_leaves(scene.skeleton(), &objects);
+        Ok(Self {
+            scene,
+            objects,
+            leaves,
+        })
     }
 
     /// The element under pixel `(x, y)` of a `size` viewport seen from
@@ -153,9 +168,9 @@ impl Picker {
         if needle.is_empty() {
             return Vec::new();
         }
-        let leaf = self.leaves();
+        let leaf = &self.leaves;
         (0..self.objects.len() as u32)
-            .filter(|&k| leaf[k as usize] != u32::MAX)
+            .filter(|&k| leaf[k as usize] != engine::format::NONE)
             .filter(|&k| {
                 self.objects
                     .info(k)
@@ -167,35 +182,8 @@ impl Picker {
 
     /// Object `k` as a selection (`None`: no leaf draws it).
     pub fn select(&self, k: u32, origin: [f64; 3]) -> Option<Selection> {
-        let leaf = *self.leaves().get(k as usize)?;
-        (leaf != u32::MAX).then(|| self.selection(Some(k), leaf, origin))
-    }
-
-    /// The first leaf of each object (a one-object leaf or chunk, else a
-    /// merged leaf that holds it); `u32::MAX` for none.
-    fn leaves(&self) -> Vec<u32> {
-        let s = self.scene.skeleton();
-        let mut leaf = vec![u32::MAX; self.objects.len()];
-        for (i, n) in s.nodes.iter().enumerate() {
-            if n.child_count > 0 {
-                continue;
-            }
-            let objs: Vec<u32> = if n.object != engine::format::NONE {
-                vec![n.object]
-            } else {
-                self.objects
-                    .runs_of(i as u32)
-                    .iter()
-                    .map(|r| r.object)
-                    .collect()
-            };
-            for k in objs {
-                if let Some(l) = leaf.get_mut(k as usize).filter(|l| **l == u32::MAX) {
-                    *l = i as u32;
-                }
-            }
-        }
-        leaf
+        let leaf = *self.leaves.get(k as usize)?;
+        (leaf != engine::format::NONE).then(|| self.selection(Some(k), leaf, origin))
     }
 }
 

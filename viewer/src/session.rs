@@ -157,11 +157,11 @@ impl Session {
     pub fn tree(&mut self) -> Result<&engine::tree::ModelTree> {
         if self.tree.is_none() {
             self.picker()?;
-            let table = self.picker.as_ref().expect("opened above").objects();
+            let picker = self.picker.as_ref().expect("opened above");
+            let table = picker.objects();
             let name = (self.path.file_name()).map_or("model".into(), |n| n.to_string_lossy());
             let t = std::time::Instant::now();
-            let drawn = engine::tree::drawn_objects(&self.skeleton, table);
-            let tree = engine::tree::ModelTree::new(table, &name, &drawn);
+            let tree = engine::tree::ModelTree::new(table, &name, &picker.drawn());
             tracing::info!(
                 "model tree: {} groups over {} elements, made in {:.1} ms",
                 tree.groups().len(),

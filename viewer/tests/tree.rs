@@ -9,6 +9,15 @@ use engine::image::RgbaImage;
 
 use common::{artefacts, can_run, scene_coverage, view};
 
+/// The FZK-Haus built from its IFC (site, building, storeys) into `dir`.
+fn ifc_haus(dir: &std::path::Path) -> std::path::PathBuf {
+    let scene = dir.join("haus.hlod");
+    let ifc = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/data/ifc/AC14-FZK-Haus.ifc");
+    hlod_builder::build::build_file(&ifc, &scene, &Default::default(), false).unwrap();
+    scene
+}
+
 /// The roof's tiles: orange pixels.
 fn orange(img: &RgbaImage) -> usize {
     (0..img.height)
@@ -44,10 +53,7 @@ fn a_storey_is_xrayed_hidden_and_isolated_by_its_name_in_the_tree() {
     }
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let scene = d.join("haus.hlod");
-    let ifc = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../tests/data/ifc/AC14-FZK-Haus.ifc");
-    hlod_builder::build::build_file(&ifc, &scene, &Default::default(), false).unwrap();
+    let scene = ifc_haus(d);
     let run = |name: &str, args: &[&str]| {
         let shot = format!("{name}.png");
         let mut all = vec![scene.to_str().unwrap(), "--exit-when-complete"];
@@ -115,10 +121,7 @@ fn the_tree_panel_lists_the_storeys_and_a_text_that_names_nothing_is_an_error() 
     }
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let scene = d.join("haus.hlod");
-    let ifc = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../tests/data/ifc/AC14-FZK-Haus.ifc");
-    hlod_builder::build::build_file(&ifc, &scene, &Default::default(), false).unwrap();
+    let scene = ifc_haus(d);
     let s = scene.to_str().unwrap();
     let args = [
         s,

@@ -573,6 +573,9 @@ impl GpuRenderer {
     /// ([`back_to_front`]): the reps with a translucent colour, or the
     /// x-rayed ones when `xray`.
     fn translucent_order(&self, draws: &[(usize, Slot)], xray: bool) -> Vec<usize> {
+        if xray && !self.parts.any_xray() {
+            return Vec::new();
+        }
         let eye = self.view.as_ref().map_or(Vec3::ZERO, |v| v.pose.position);
         back_to_front(
             eye,

@@ -52,20 +52,17 @@ fn hidden_leaves_leave_and_their_ancestors_go_mixed() {
     assert_eq!(Hiding::new(&s, &t, |_| false), Hiding::none(7));
 }
 
+/// Leaf 3's runs when it merges objects 0 and 1, a triangle each.
+fn two_runs() -> Vec<Run> {
+    [(0, 1), (1, 2)]
+        .map(|(object, tri_end)| Run { object, tri_end })
+        .to_vec()
+}
+
 #[test]
 fn a_merged_leaf_in_part_hidden_draws_the_shown_runs_of_its_finest_rep() {
     // Leaf 3 merges objects 0, 1, 0 (triangles 0..1, 1..2 of its quad).
-    let runs = vec![
-        Run {
-            object: 0,
-            tri_end: 1,
-        },
-        Run {
-            object: 1,
-            tri_end: 2,
-        },
-    ];
-    let (s, t) = scene(&[(3, runs)], 4);
+    let (s, t) = scene(&[(3, two_runs())], 4);
     let h = Hiding::new(&s, &t, |k| k == 1);
     assert_eq!(h.nodes()[3], NodeVis::Mixed);
     let finest = s.nodes[3].first_rep + s.nodes[3].rep_count - 1;
@@ -80,17 +77,7 @@ fn a_merged_leaf_in_part_hidden_draws_the_shown_runs_of_its_finest_rep() {
 #[test]
 fn xrayed_nodes_stay_in_the_front_drawn_translucent_and_mixed_ones_split() {
     use crate::tree::Look;
-    let runs = vec![
-        Run {
-            object: 0,
-            tri_end: 1,
-        },
-        Run {
-            object: 1,
-            tri_end: 2,
-        },
-    ];
-    let (s, t) = scene(&[(3, runs)], 4);
+    let (s, t) = scene(&[(3, two_runs())], 4);
     let obj = |n: usize| s.nodes[n].object;
     // Leaf 3 merges objects 0 (shown) and 1 (x-rayed), which leaf 4 also
     // names; leaf 5's object is x-rayed, leaf 6's hidden.

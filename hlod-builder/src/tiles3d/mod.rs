@@ -286,8 +286,9 @@ impl Tileset<'_> {
 /// `type`/`GlobalId` and common spellings, else an IFC-style name
 /// `IfcClass:Name:GlobalId`).
 pub fn element(object: u32, info: &str) -> Element {
-    let d = engine::tree::Described::parse(info);
-    let described = serde_json::from_str::<Value>(info).is_ok_and(|v| !v.is_null());
+    let v: Value = serde_json::from_str(info).unwrap_or(Value::Null);
+    let d = engine::tree::Described::of(&v);
+    let described = !v.is_null();
     Element {
         object,
         mesh_name: d.mesh_name,

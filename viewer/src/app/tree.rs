@@ -137,11 +137,8 @@ impl App {
     /// A click in the tree.
     fn tree_action(&mut self, a: TreeAction) {
         let Some(s) = &mut self.session else { return };
-        if s.tree().is_err() {
-            return;
-        }
-        let mut looks = s.looks().to_vec();
-        let Some(tree) = s.tree_made() else { return };
+        let origin = s.origin;
+        let Ok(tree) = s.tree() else { return };
         let (objects, what) = match a.target {
             Target::Group(g) => (
                 tree.objects(g).to_vec(),
@@ -149,37 +146,28 @@ impl App {
             ),
             Target::Object(k) => (vec![k], tree.label(k).to_string()),
         };
-        match a.what {
-            What::Op(op) => {
-                tree.apply(&mut looks, &objects, op);
-                println!("{op:?} {what:?}: {} element(s)", objects.len());
-                self.set_looks(looks);
-            }
-            What::FlyTo => {
-                let (min, max) = match tree.bounds_of(&objects) {
-                    Some(b) => b,
-                    None => return self.report(format!("{what}: no box to fly to")),
+        let bounds = tree.bounds_of(&objects);
+        match (a.what, a.target) {
+            (What::Op(op), _) => self.apply_op(op, &objects, &format!("{what:?}")),
+            (What::FlyTo, _) => {
+                let Some((min, max)) = bounds else {
+                    return self.report(format!("{what}: no box to fly to"));
                 };
-                let o = s.origin;
                 let scene = |w: [f64; 3]| {
                     Vec3::new(
-                        (w[0] - o[0]) as f32,
-                        (w[1] - o[1]) as f32,
-                        (w[2] - o[2]) as f32,
+                        (w[0] - origin[0]) as f32,
+                        (w[1] - origin[1]) as f32,
+                        (w[2] - origin[2]) as f32,
                     )
                 };
                 self.fly_to(scene(min), scene(max));
                 println!("flew to {what:?}");
             }
-            What::Select => {
-                if let Target::Object(k) = a.target {
-                    let origin = s.origin;
-                    let Some(s) = &mut self.session else { return };
-                    let sel = s.picker().ok().and_then(|p| p.select(k, origin));
-                    self.selection = sel;
-                    self.ui_dirty = true;
-                }
+            (What::Select, Target::Object(k)) => {
+                self.selection = s.picker().ok().and_then(|p| p.select(k, origin));
+                self.ui_dirty = true;
             }
+            (What::Select, Target::Group(_)) => {}
         }
     }
 
@@ -212,6 +200,7 @@ impl App {
             Ok(tree) => tree.apply(&mut looks, objects, op),
             Err(e) => return self.report(format!("{op:?} {what}: {e:#}")),
         }
+        println!("{op:?} {what}: {} element(s)", objects.len());
         self.set_looks(looks);
     }
 }

@@ -67,15 +67,7 @@ impl App {
             self.report(format!("find {text:?}: no element matches"));
             return;
         };
-        let c = *sess.renderer.config();
-        let aspect = c.width as f32 / c.height.max(1) as f32;
-        let pad = (first.scene_max - first.scene_min).max_element().max(0.5) * 0.5;
-        self.controls.frame_all_beside(
-            first.scene_min - pad,
-            first.scene_max + pad,
-            aspect,
-            self.ui.panel_frac,
-        );
+        self.fly_to(first.scene_min, first.scene_max);
         println!(
             "find {text:?}: {} element(s); selected {} and flew to it",
             found.len(),
@@ -83,8 +75,6 @@ impl App {
         );
         self.ui.tree.reveal = first.object;
         self.selection = Some(first);
-        self.play = None;
-        self.ui_dirty = true;
     }
 
     /// `M`: clicks measure instead of selecting (and back).
