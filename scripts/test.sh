@@ -19,6 +19,24 @@ if [ -n "$long" ]; then
   echo "$long" >&2
   exit 1
 fi
+# The engine is data and algorithms: no GPU, window, CLI, network, output-file,
+# PNG or sleeping crate among its dependencies (CODE_STYLE.md, "Layout").
+io_deps=$(cargo tree -q -p engine -e normal --prefix none 2>/dev/null |
+  grep -E '^(wgpu|winit|clap|object_store|tokio|tempfile|png|spin_sleep|signal-hook) ' | sort -u || true)
+if [ -n "$io_deps" ]; then
+  echo "test: engine depends on:" >&2
+  echo "$io_deps" >&2
+  exit 1
+fi
+# Time in the engine comes from its Clock (engine/src/clock.rs); test code
+# (test files, and a file's part from its first `#[cfg(test)]` on) aside.
+clock_reads=$(git ls-files 'engine/src/*.rs' | grep -v -E '^engine/src/clock\.rs$|(tests?|_tests)\.rs$|/tests/' |
+  xargs awk '/^#\[cfg\(test\)\]/ { nextfile } /Instant::now\(|thread::sleep\(/ { print FILENAME ":" FNR ": " $0 }')
+if [ -n "$clock_reads" ]; then
+  echo "test: the engine reads the system clock outside engine::clock:" >&2
+  echo "$clock_reads" >&2
+  exit 1
+fi
 if cargo fmt --version >/dev/null 2>&1; then
   cargo fmt --all -- --check
 else

@@ -1,11 +1,15 @@
-//! Disk models behind [`ByteSource`]: the real file (optionally with its page
-//! cache dropped first) or a throttled device with a seek latency and a
-//! bandwidth, so that the papers' slow-disk regime can be reproduced here.
+//! Disk models behind [`ByteSource`]: a device with a seek latency and a
+//! bandwidth whose reads take their time on a [`Clock`] (slept out on the
+//! system's, advanced on a [`crate::clock::ManualClock`]), so that the
+//! papers' slow-disk regime can be reproduced here and tested without
+//! waiting; and the fault injectors the tests use. Opening a real file
+//! behind a model (page cache dropped or warmed) is the programs' business
+//! (`engine_cli::disk`).
 
-use crate::clock::ManualClock;
+use crate::clock::{Clock, SystemClock};
 use std::io;
-use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 use crate::io::ByteSource;
 
@@ -72,25 +76,32 @@ impl DiskModel {
     }
 }
 
-/// Sleeps natively until 150 µs before a deadline, then spins (yielding).
-fn sleeper() -> spin_sleep::SpinSleeper {
-    spin_sleep::SpinSleeper::new(150_000).with_spin_strategy(spin_sleep::SpinStrategy::YieldThread)
-}
-
-/// A source whose reads take the time the model says (sleeping out the rest).
+/// A source whose reads take the time the model says on `clock`: the rest
+/// of the read's modelled cost is slept out on a real clock, and a manual
+/// clock is moved on by it (a read that continues where the previous one
+/// ended pays no seek). With the runtime started on the same manual clock
+/// ([`crate::runtime::Walkthrough::start_with_clock`]), P_I's timing policy
+/// runs as on the device, exactly and without waiting.
 #[derive(Debug)]
 pub struct ThrottledSource<S> {
     inner: S,
     model: DiskModel,
+    clock: Arc<dyn Clock>,
     last_end: Mutex<Option<u64>>,
 }
 
 impl<S: ByteSource> ThrottledSource<S> {
-    /// Wraps `inner` in `model`.
+    /// Wraps `inner` in `model` on the system's clock.
     pub fn new(inner: S, model: DiskModel) -> Self {
+        Self::with_clock(inner, model, Arc::new(SystemClock))
+    }
+
+    /// Wraps `inner` in `model` on `clock`.
+    pub fn with_clock(inner: S, model: DiskModel, clock: Arc<dyn Clock>) -> Self {
         Self {
             inner,
             model,
+            clock,
             last_end: Mutex::new(None),
         }
     }
@@ -102,14 +113,11 @@ impl<S: ByteSource> ByteSource for ThrottledSource<S> {
     }
 
     fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
-        let start = Instant::now();
+        let start = self.clock.now();
         let seek = is_seek(&self.last_end, offset, buf.len());
         self.inner.read_at(offset, buf)?;
-        let due = self.model.cost(buf.len(), seek);
-        // `thread::sleep` oversleeps by the timer slack (50-80 µs on Linux),
-        // several times a small read's transfer on an SSD: the last stretch
-        // is spun, yielding the core.
-        sleeper().sleep_until(start + due);
+        self.clock
+            .sleep_until(start + self.model.cost(buf.len(), seek));
         Ok(())
     }
 }
@@ -121,43 +129,6 @@ fn is_seek(last_end: &Mutex<Option<u64>>, offset: u64, len: usize) -> bool {
     let seek = *last != Some(offset);
     *last = Some(offset + len as u64);
     seek
-}
-
-/// A simulated device: reads cost `model`'s time on a [`ManualClock`],
-/// advanced by the read instead of slept (a read that continues where the
-/// previous one ended pays no seek). With the runtime started on the same
-/// clock ([`crate::runtime::Walkthrough::start_with_clock`]), P_I's timing
-/// policy runs as on the device, exactly and without waiting.
-#[derive(Debug)]
-pub struct ClockedSource<S> {
-    inner: S,
-    model: DiskModel,
-    clock: std::sync::Arc<ManualClock>,
-    last_end: Mutex<Option<u64>>,
-}
-
-impl<S: ByteSource> ClockedSource<S> {
-    pub fn new(inner: S, model: DiskModel, clock: std::sync::Arc<ManualClock>) -> Self {
-        Self {
-            inner,
-            model,
-            clock,
-            last_end: Mutex::new(None),
-        }
-    }
-}
-
-impl<S: ByteSource> ByteSource for ClockedSource<S> {
-    fn len(&self) -> u64 {
-        self.inner.len()
-    }
-
-    fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
-        let seek = is_seek(&self.last_end, offset, buf.len());
-        self.inner.read_at(offset, buf)?;
-        self.clock.advance(self.model.cost(buf.len(), seek));
-        Ok(())
-    }
 }
 
 /// A source that fails reads touching `bad` byte ranges (fault injection).
@@ -240,75 +211,10 @@ impl<A: ByteSource, B: ByteSource> ByteSource for SwitchingSource<A, B> {
     }
 }
 
-/// Asks the OS to drop the file's pages from the page cache (Linux); returns
-/// whether it was done.
-pub fn drop_page_cache(file: &std::fs::File) -> bool {
-    #[cfg(target_os = "linux")]
-    {
-        rustix::fs::fadvise(file, 0, None, rustix::fs::Advice::DontNeed).is_ok()
-    }
-    #[cfg(not(target_os = "linux"))]
-    {
-        let _ = file;
-        false
-    }
-}
-
-/// Reads the whole file once so that its pages are in the page cache: under
-/// a disk model the model alone must set what a read costs (a cold page
-/// cache added the real disk's latency to every first read, several times
-/// an SSD model's 0.1 ms seek). Returns the bytes read.
-pub fn warm_page_cache(file: &std::fs::File) -> io::Result<u64> {
-    use std::io::Read;
-    #[cfg(target_os = "linux")]
-    let _ = rustix::fs::fadvise(file, 0, None, rustix::fs::Advice::WillNeed);
-    let mut r = file;
-    let mut buf = vec![0u8; 4 << 20];
-    let mut n = 0u64;
-    loop {
-        match r.read(&mut buf) {
-            Ok(0) => return Ok(n),
-            Ok(k) => n += k as u64,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-}
-
-/// Opens a scene file as a rep source: the real file with its page cache
-/// dropped (a cold start), or behind a throttled disk model with its page
-/// cache warmed ([`warm_page_cache`]).
-pub fn open_scene_source(
-    path: &std::path::Path,
-    model: Option<DiskModel>,
-) -> io::Result<std::sync::Arc<dyn ByteSource>> {
-    scene_source(crate::infile::open(path)?, model)
-}
-
-/// [`open_scene_source`] over a file already open: a program that runs
-/// several walks opens the scene once and hands each a clone of the handle
-/// (`File::try_clone`), so every walk reads the same file even if the path
-/// is replaced meanwhile (a rebuild renames a new file over it).
-pub fn scene_source(
-    file: std::fs::File,
-    model: Option<DiskModel>,
-) -> io::Result<std::sync::Arc<dyn ByteSource>> {
-    let f = crate::io::FileSource::from_file(file)?;
-    Ok(match model {
-        None => {
-            drop_page_cache(f.file());
-            std::sync::Arc::new(f)
-        }
-        Some(m) => {
-            warm_page_cache(f.file())?;
-            std::sync::Arc::new(ThrottledSource::new(f, m))
-        }
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::clock::ManualClock;
     use crate::io::MemSource;
 
     #[test]
@@ -317,24 +223,17 @@ mod tests {
             latency: Duration::from_millis(20),
             bytes_per_sec: 1e6,
         };
-        let src = ThrottledSource::new(MemSource::new(vec![7u8; 100_000]), m);
+        let clock = Arc::new(ManualClock::new());
+        let src = ThrottledSource::with_clock(MemSource::new(vec![7u8; 100_000]), m, clock.clone());
         let mut buf = vec![0u8; 10_000];
-        let t = Instant::now();
         src.read_at(0, &mut buf).unwrap(); // seek + 10 ms
+        assert_eq!(clock.elapsed(), Duration::from_millis(30));
         src.read_at(10_000, &mut buf).unwrap(); // sequential: 10 ms
-        let took = t.elapsed();
-        assert!(took >= Duration::from_millis(40), "{took:?}");
+        assert_eq!(clock.elapsed(), Duration::from_millis(40));
+        src.read_at(0, &mut buf).unwrap(); // back: a seek again
+        assert_eq!(clock.elapsed(), Duration::from_millis(70));
         assert!(buf.iter().all(|&b| b == 7));
         assert_eq!(m.cost(10_000, true), Duration::from_millis(30));
-    }
-
-    #[test]
-    fn warming_reads_the_whole_file() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("f");
-        std::fs::write(&p, vec![7u8; (9 << 20) + 5]).unwrap();
-        let f = std::fs::File::open(&p).unwrap();
-        assert_eq!(warm_page_cache(&f).unwrap(), (9 << 20) + 5);
     }
 
     #[test]
@@ -366,26 +265,6 @@ mod tests {
         src.read_at(0, &mut b).unwrap();
         assert_eq!(b, [2, 2]);
         assert!(src.read_at(6, &mut b).is_err(), "truncated");
-    }
-
-    #[test]
-    fn a_scene_source_reads_the_file_it_was_opened_on_after_the_path_is_replaced() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("s.hlod");
-        std::fs::write(&path, [1u8; 4096]).unwrap();
-        let file = std::fs::File::open(&path).unwrap();
-        let src = scene_source(file.try_clone().unwrap(), None).unwrap();
-        // A rebuild: a new file renamed over the path.
-        let new = dir.path().join("new.hlod");
-        std::fs::write(&new, [2u8; 100]).unwrap();
-        std::fs::rename(&new, &path).unwrap();
-        let later = scene_source(file.try_clone().unwrap(), Some(DiskModel::NVME)).unwrap();
-        let mut b = [0u8; 16];
-        for s in [src, later] {
-            assert_eq!(s.len(), 4096);
-            s.read_at(4000, &mut b).unwrap();
-            assert_eq!(b, [1u8; 16]);
-        }
     }
 
     #[test]

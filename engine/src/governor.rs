@@ -152,17 +152,23 @@ impl Governor {
         self.current
     }
 
-    fn fits(&self, c: FrontCost, capacity: u64, share: f64) -> bool {
-        let fit = capacity as f64 * f64::from(self.params.fit_share) * share;
+    fn fits(&self, c: FrontCost, capacity: Option<u64>, share: f64) -> bool {
+        let bytes_ok = capacity
+            .is_none_or(|b| c.bytes as f64 <= b as f64 * f64::from(self.params.fit_share) * share);
         let max_tris = self.tri_target();
         let tris_ok = max_tris == 0 || c.tris as f64 <= max_tris as f64 * share;
-        c.bytes as f64 <= fit && tris_ok
+        bytes_ok && tris_ok
     }
 
-    /// This frame's tolerance, for fronts that may take `capacity` bytes;
+    /// This frame's tolerance, for fronts that may take `capacity` bytes
+    /// (`None`: no byte bound, in core);
     /// `measure(ε)` computes the front at ε and says what it costs (the
     /// caller keeps the fronts it computed).
-    pub fn choose(&mut self, capacity: u64, mut measure: impl FnMut(f32) -> FrontCost) -> f32 {
+    pub fn choose(
+        &mut self,
+        capacity: Option<u64>,
+        mut measure: impl FnMut(f32) -> FrontCost,
+    ) -> f32 {
         let p = self.params;
         let mut eps = self
             .current
@@ -202,7 +208,7 @@ mod tests {
     #[test]
     fn a_front_that_fits_keeps_the_tolerance() {
         let mut g = Governor::new(GovernorParams::default(), 2.0);
-        assert_eq!(g.choose(1000, front(1000.0)), 2.0);
+        assert_eq!(g.choose(Some(1000), front(1000.0)), 2.0);
     }
 
     #[test]
@@ -210,12 +216,12 @@ mod tests {
         let p = GovernorParams::default();
         let mut g = Governor::new(p, 1.0);
         // Fits at ε with 8000 / ε <= 800: ε >= 10.
-        let eps = g.choose(1000, front(8000.0));
+        let eps = g.choose(Some(1000), front(8000.0));
         assert!(eps >= 10.0 && eps < 10.0 * p.step, "{eps}");
         // A still camera: the same tolerance on every later frame.
         let mut seen = vec![eps];
         for _ in 0..20 {
-            seen.push(g.choose(1000, front(8000.0)));
+            seen.push(g.choose(Some(1000), front(8000.0)));
         }
         assert!(seen.windows(2).all(|w| w[0] == w[1]), "{seen:?}");
     }
@@ -223,12 +229,12 @@ mod tests {
     #[test]
     fn the_tolerance_comes_back_down_when_the_front_shrinks_without_oscillating() {
         let mut g = Governor::new(GovernorParams::default(), 1.0);
-        g.choose(1000, front(8000.0));
+        g.choose(Some(1000), front(8000.0));
         // The view shrinks the front: back down step by step to ε.
         let mut last = g.tolerance();
         let mut steps = 0;
         while g.tolerance() > 1.0 {
-            let e = g.choose(1000, front(100.0));
+            let e = g.choose(Some(1000), front(100.0));
             assert!(e <= last);
             last = e;
             steps += 1;
@@ -239,7 +245,7 @@ mod tests {
         let k = 800.0 * 5.0;
         let mut seen = Vec::new();
         for _ in 0..30 {
-            seen.push(g.choose(1000, front(k)));
+            seen.push(g.choose(Some(1000), front(k)));
         }
         let flips = seen
             .windows(3)
@@ -256,13 +262,13 @@ mod tests {
             ..GovernorParams::default()
         };
         let mut g = Governor::new(p, 1.0);
-        let e = g.choose(u64::MAX, |eps| FrontCost {
+        let e = g.choose(None, |eps| FrontCost {
             bytes: 0,
             tris: (1000.0 / eps) as u64,
         });
         assert!((10.0..12.5).contains(&e), "{e}");
         // Nothing fits: the largest tolerance, no further.
-        let e = g.choose(10, |_| FrontCost {
+        let e = g.choose(Some(10), |_| FrontCost {
             bytes: 1000,
             tris: 0,
         });
@@ -281,7 +287,7 @@ mod tests {
         let mut seen = Vec::new();
         let mut last_ms = 0.0;
         for _ in 0..120 {
-            let e = g.choose(u64::MAX, |eps| FrontCost {
+            let e = g.choose(None, |eps| FrontCost {
                 bytes: 0,
                 tris: (1e6 / f64::from(eps)) as u64,
             });
@@ -299,7 +305,7 @@ mod tests {
         // A cheap scene stays at ε.
         let mut g = Governor::new(p, 1.0);
         for _ in 0..30 {
-            let e = g.choose(u64::MAX, |_| FrontCost {
+            let e = g.choose(None, |_| FrontCost {
                 bytes: 0,
                 tris: 10_000,
             });

@@ -1,9 +1,6 @@
-//! RGBA8 images: PNG files, PSNR, and tolerance-based comparison with a
-//! difference image, for golden-image tests and the benchmark's image quality.
-//! Plain CPU code.
-
-use std::io::BufReader;
-use std::path::Path;
+//! RGBA8 images: PSNR and tolerance-based comparison with a difference
+//! image, for golden-image tests and the benchmark's image quality. Plain
+//! CPU code; PNG files are the programs' (`engine_cli::png`).
 
 /// An 8-bit RGBA image, rows top to bottom.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -11,18 +8,6 @@ pub struct RgbaImage {
     pub width: u32,
     pub height: u32,
     pub data: Vec<u8>,
-}
-
-/// Why an image cannot be read or written.
-#[derive(Debug, thiserror::Error)]
-pub enum ImageError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
-    #[error("{path}: not a usable PNG: {reason}")]
-    Png { path: String, reason: String },
 }
 
 /// How two images differ.
@@ -56,62 +41,6 @@ impl RgbaImage {
             self.data[i + 2],
             self.data[i + 3],
         ]
-    }
-
-    /// Writes the image as an RGBA PNG (under the output-file policy:
-    /// atomically, never over a device or a link's name).
-    pub fn save_png(&self, path: &Path) -> Result<(), ImageError> {
-        let name = path.display().to_string();
-        crate::outfile::write_with(path, &[], |w| {
-            let mut enc = png::Encoder::new(w, self.width, self.height);
-            enc.set_color(png::ColorType::Rgba);
-            enc.set_depth(png::BitDepth::Eight);
-            let mut w = enc.write_header().map_err(std::io::Error::other)?;
-            w.write_image_data(&self.data)
-                .map_err(std::io::Error::other)?;
-            w.finish().map_err(std::io::Error::other)
-        })
-        .map_err(|source| ImageError::Io { path: name, source })
-    }
-
-    /// Reads an 8-bit RGB or RGBA PNG.
-    pub fn load_png(path: &Path) -> Result<Self, ImageError> {
-        let name = path.display().to_string();
-        let file = crate::infile::open(path).map_err(|source| ImageError::Io {
-            path: name.clone(),
-            source,
-        })?;
-        let bad = |reason: String| ImageError::Png {
-            path: name.clone(),
-            reason,
-        };
-        let mut dec = png::Decoder::new(BufReader::new(file));
-        dec.set_transformations(png::Transformations::EXPAND);
-        let mut reader = dec.read_info().map_err(|e| bad(e.to_string()))?;
-        let size = reader
-            .output_buffer_size()
-            .ok_or_else(|| bad("image too large".into()))?;
-        let mut buf = vec![0; size];
-        let info = reader
-            .next_frame(&mut buf)
-            .map_err(|e| bad(e.to_string()))?;
-        if info.bit_depth != png::BitDepth::Eight {
-            return Err(bad(format!("bit depth {:?}, need 8", info.bit_depth)));
-        }
-        let px = info.width as usize * info.height as usize;
-        let data = match info.color_type {
-            png::ColorType::Rgba => buf[..px * 4].to_vec(),
-            png::ColorType::Rgb => buf[..px * 3]
-                .chunks_exact(3)
-                .flat_map(|c| [c[0], c[1], c[2], 255])
-                .collect(),
-            other => return Err(bad(format!("colour type {other:?}, need RGB(A)"))),
-        };
-        Ok(Self {
-            width: info.width,
-            height: info.height,
-            data,
-        })
     }
 
     /// Compares RGB channels with `other` (same size required).
@@ -220,14 +149,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn png_round_trip_and_psnr() {
-        let dir = tempfile::tempdir().unwrap();
+    fn psnr_and_differing_pixels() {
         let mut img = RgbaImage::filled(7, 5, [10, 20, 30, 255]);
         img.data[4 * 8] = 200;
-        let p = dir.path().join("a.png");
-        img.save_png(&p).unwrap();
-        let back = RgbaImage::load_png(&p).unwrap();
-        assert_eq!(back, img);
+        let back = img.clone();
         let d = img.diff(&back, 0).unwrap();
         assert_eq!(d.psnr_db, f64::INFINITY);
         assert_eq!(d.pixels_over, 0);
@@ -272,20 +197,5 @@ mod tests {
             a.differing_beyond_one_pixel(&RgbaImage::filled(1, 1, bg), 8)
                 .is_none()
         );
-    }
-
-    #[test]
-    fn bad_png_is_an_error() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("bad.png");
-        std::fs::write(&p, b"not a png").unwrap();
-        assert!(matches!(
-            RgbaImage::load_png(&p),
-            Err(ImageError::Png { .. })
-        ));
-        assert!(matches!(
-            RgbaImage::load_png(&dir.path().join("missing.png")),
-            Err(ImageError::Io { .. })
-        ));
     }
 }

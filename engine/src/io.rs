@@ -193,7 +193,7 @@ impl ByteSource for WindowSource {
 
 /// A read of `len` bytes at `offset` ends within `total` bytes, else the
 /// [`io::ErrorKind::UnexpectedEof`] every source answers.
-pub(crate) fn check_range(offset: u64, len: usize, total: u64) -> io::Result<()> {
+pub fn check_range(offset: u64, len: usize, total: u64) -> io::Result<()> {
     match offset.checked_add(len as u64) {
         Some(end) if end <= total => Ok(()),
         _ => Err(io::Error::new(

@@ -19,9 +19,9 @@
 //! - [`skeleton`]: the in-core hierarchy, the paper's PAR/CHD/ASC/DSC relations
 //!   over object-reps and [`Skeleton::validate`].
 //! - [`io`] and [`disk`]: [`ByteSource`] (file, in-memory) and the disk models
-//!   behind it (throttled device, fault injection, page-cache drop).
-//! - [`camera`]: poses, views, frustum, projected error, the camera path format
-//!   and path generators; [`front`]: the per-frame front (frustum and
+//!   behind it (a modelled device on a [`clock::Clock`], fault injection).
+//! - [`camera`]: poses, views, frustum, projected error and the camera path
+//!   format; [`front`]: the per-frame front (frustum and
 //!   simplification culling).
 //! - [`cache`] (StartTail InMemoryList), [`prefetch`] (bins, AngPr, Priority)
 //!   and [`runtime`]: P_R ([`runtime::Walkthrough`]) and the P_I loader thread
@@ -34,8 +34,8 @@
 //! - [`section`]: section planes and boxes, culled with the frustum;
 //!   [`hide`]: hidden elements, which nodes leave the front.
 //! - [`limits`] (checked durations, allocations and reads bounded by the
-//!   file and the machine) and [`outfile`] (the output-file policy of every
-//!   writer: regular or new files only, never an input, atomic, cleaned up).
+//!   file and the machine) and [`infile`] (the input policy of every reader:
+//!   regular files only, remembered so that no output overwrites them).
 //! - [`vdt`]: view-dependence trees (El-Sana & Chiang) for large objects —
 //!   the tree, meta-node blocking and file, per-frame refinement, the
 //!   place-holder buffer manager with its I/O thread, and the
@@ -43,18 +43,19 @@
 //!   scene file (`RepKind::Vdt`); P_R refines and draws it
 //!   (`runtime::trees`) under the runtime's one footprint.
 //!
-//! This crate does not depend on wgpu: the wgpu renderer is the `engine-gpu`
-//! crate (`engine/gpu/`), behind [`render::Renderer`]; the binaries' shared
-//! plumbing (error report, validated parameters) is `engine-cli`
-//! (`engine/cli/`), and `hlod-bench` / `vdt-bench` with their plots live in
-//! `engine-tools` (`engine/tools/`).
+//! This crate holds data and algorithms only: no GPU, no network, no sleeps
+//! (time comes from a [`clock::Clock`]), no output files. The wgpu renderer
+//! is the `engine-gpu` crate (`engine/gpu/`), behind [`render::Renderer`];
+//! the programs' shared plumbing is `engine-cli` (`engine/cli/`): error
+//! report, validated parameters, the output-file policy, PNG files, scene
+//! files behind disk models, scenes on a server and their disk cache,
+//! generated paths and report tables; `hlod-bench` / `vdt-bench` with their
+//! plots live in `engine-tools` (`engine/tools/`).
 
 pub mod cache;
 pub mod camera;
 pub mod clock;
 pub mod disk;
-#[cfg(feature = "remote")]
-pub mod disk_cache;
 pub mod fade;
 pub mod format;
 pub mod front;
@@ -69,15 +70,11 @@ pub mod measure;
 pub mod metrics;
 pub mod mt;
 pub mod occlusion;
-pub mod outfile;
 pub mod pick;
 pub mod prefetch;
 pub mod records;
-#[cfg(feature = "remote")]
-pub mod remote;
 pub mod render;
 pub mod runtime;
-pub mod scene_handle;
 pub mod section;
 pub mod skeleton;
 pub mod tree;
@@ -92,5 +89,4 @@ pub use format::{
     SceneFile, SceneMeta, SceneWriter,
 };
 pub use io::{ByteSource, FileSource, MemSource};
-pub use scene_handle::SceneHandle;
 pub use skeleton::{RepId, Skeleton, ValidationError};

@@ -7,9 +7,10 @@
 //! rendering takes time and overlaps with loading as on a real GPU.
 
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use crate::camera::View;
+use crate::clock::{Clock, SystemClock};
 use crate::format::RepRecord;
 use crate::skeleton::RepId;
 
@@ -86,28 +87,46 @@ impl DrawStyle {
     }
 }
 
-/// Draws nothing; optionally takes `1 / tris_per_sec` seconds per triangle.
-#[derive(Debug, Default)]
+/// Draws nothing; optionally takes `1 / tris_per_sec` seconds per triangle
+/// on its clock (slept on the system's, advanced on a manual one).
+#[derive(Debug)]
 pub struct NoneRenderer {
     tris_per_sec: f64,
     debt: Duration,
     frame_tris: u64,
+    clock: Arc<dyn Clock>,
+}
+
+impl Default for NoneRenderer {
+    fn default() -> Self {
+        Self::new(0.0)
+    }
 }
 
 impl NoneRenderer {
-    /// A renderer of modelled speed (`0` = free).
+    /// A renderer of modelled speed (`0` = free) on the system's clock.
     pub fn new(tris_per_sec: f64) -> Self {
+        Self::with_clock(tris_per_sec, Arc::new(SystemClock))
+    }
+
+    /// A renderer of modelled speed on `clock` (the walk's, for a walk on
+    /// a manual clock: [`crate::runtime::Walkthrough::clock`]).
+    pub fn with_clock(tris_per_sec: f64, clock: Arc<dyn Clock>) -> Self {
         Self {
             tris_per_sec: tris_per_sec.max(0.0),
-            ..Self::default()
+            debt: Duration::ZERO,
+            frame_tris: 0,
+            clock,
         }
     }
 
     fn pay(&mut self, threshold: Duration) {
         if self.debt >= threshold {
-            let t = Instant::now();
-            std::thread::sleep(self.debt);
-            self.debt = self.debt.saturating_sub(t.elapsed());
+            let t = self.clock.now();
+            self.clock.sleep(self.debt);
+            self.debt = self
+                .debt
+                .saturating_sub(self.clock.now().saturating_duration_since(t));
         }
     }
 }

@@ -162,7 +162,7 @@ pub enum BuildError {
         source: std::io::Error,
     },
     #[error(transparent)]
-    Output(#[from] engine::outfile::OutputError),
+    Output(#[from] engine_cli::outfile::OutputError),
     #[error("{0}")]
     Memory(String),
     #[error("{0}")]
@@ -274,7 +274,7 @@ pub fn build_file_with(
     // is refused before any work.
     let inputs = import::model_files(input);
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-    let out = engine::outfile::OutputFile::create(output, &inputs)?;
+    let out = engine_cli::outfile::OutputFile::create(output, &inputs)?;
     let mut opened = import::open(input)?;
     opened.scene.source_key = crate::cache::key_bytes(input, params)?;
     // Every import warning is shown now, whatever becomes of the build.
@@ -285,7 +285,7 @@ pub fn build_file_with(
         path: output.to_path_buf(),
         source,
     };
-    let dir = engine::outfile::parent_dir(out.target()).to_path_buf();
+    let dir = engine_cli::outfile::parent_dir(out.target()).to_path_buf();
     let sink = BufWriter::with_capacity(1 << 20, out.file().try_clone().map_err(io_err)?);
     let mut stats =
         build_scene_staged(&opened, sink, params, opts, Some(&dir)).map_err(|e| match e {
@@ -364,7 +364,7 @@ fn build_scene_staged<S: SceneSource, W: Write + std::io::Seek>(
     // The copy in layout order needs as much room again as the staged file.
     if let Some(dir) = staging {
         let need = engine::ByteSource::len(staged.source());
-        engine::outfile::ensure_free(dir, need).map_err(|e| {
+        engine_cli::outfile::ensure_free(dir, need).map_err(|e| {
             FormatError::Io(std::io::Error::new(
                 std::io::ErrorKind::StorageFull,
                 format!("{e}: the spatial layout writes the scene twice (use --layout build to need half)"),

@@ -160,7 +160,7 @@ pub fn relayout_file(
         path: input.to_path_buf(),
         source,
     })?;
-    engine::outfile::write_with(output, &[input], |w| {
+    engine_cli::outfile::write_with(output, &[input], |w| {
         relayout(&src, w, payloads)
             .map(|_| ())
             .map_err(std::io::Error::other)

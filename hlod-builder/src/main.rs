@@ -375,7 +375,8 @@ fn parse_grid(s: &str) -> Result<(usize, usize)> {
 
 fn info(file: &std::path::Path, verify: bool, tree: Option<usize>) -> Result<()> {
     // A local file, or a URL (http(s)://, s3://) read with ranged requests.
-    let handle = engine::SceneHandle::open(file).with_context(|| format!("{}", file.display()))?;
+    let handle =
+        engine_cli::SceneHandle::open(file).with_context(|| format!("{}", file.display()))?;
     let scene = engine::SceneFile::from_source(handle.raw()?)
         .with_context(|| format!("{}", file.display()))?;
     let stats = stats_of(&scene);
@@ -384,7 +385,7 @@ fn info(file: &std::path::Path, verify: bool, tree: Option<usize>) -> Result<()>
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     println!("{TABLE_HEADER}\n{}", table_row(&name, &stats));
     #[cfg(feature = "remote")]
-    if let engine::SceneHandle::Remote(r, _) = &handle {
+    if let engine_cli::SceneHandle::Remote(r, _) = &handle {
         println!(
             "read from a server with ranged requests: {} bytes, {} (pinned: every read asks for this version)",
             engine::ByteSource::len(r),
@@ -548,7 +549,7 @@ fn write_vdt(out: &std::path::Path, input: &std::path::Path, bytes: &[u8]) -> Re
     use std::io::Write;
     let inputs = hlod_builder::import::model_files(input);
     let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
-    engine::outfile::write_with(out, &inputs, |w| w.write_all(bytes))
+    engine_cli::outfile::write_with(out, &inputs, |w| w.write_all(bytes))
         .with_context(|| format!("cannot write {}", out.display()))
 }
 
@@ -566,7 +567,7 @@ fn vdt_report(
     if let Some(out) = output {
         let inputs = hlod_builder::import::model_files(input);
         let inputs: Vec<&std::path::Path> = inputs.iter().map(PathBuf::as_path).collect();
-        engine::outfile::check_output(out, &inputs)?;
+        engine_cli::outfile::check_output(out, &inputs)?;
     }
     let levels = meta::levels_for_block(block);
     let metric = match metric {

@@ -29,7 +29,7 @@ pub fn mt_report(
     let inputs = hlod_builder::import::model_files(input);
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     if let Some(out) = output {
-        engine::outfile::check_output(out, &inputs)?;
+        engine_cli::outfile::check_output(out, &inputs)?;
     }
     let imp = hlod_builder::import::load(input)?;
     let (i, m) = imp
@@ -78,7 +78,7 @@ pub fn mt_report(
     );
     if let Some(out) = output {
         use std::io::Write;
-        engine::outfile::write_with(out, &inputs, |w| w.write_all(&bytes))
+        engine_cli::outfile::write_with(out, &inputs, |w| w.write_all(&bytes))
             .with_context(|| format!("cannot write {}", out.display()))?;
         println!("wrote {}", out.display());
     }

@@ -222,7 +222,7 @@ fn vdt_report_and_its_failures() {
 }
 
 fn is_temp(name: &str) -> bool {
-    name.ends_with(engine::outfile::TEMP_SUFFIX)
+    name.ends_with(engine_cli::outfile::TEMP_SUFFIX)
 }
 
 fn names(d: &Path) -> Vec<String> {

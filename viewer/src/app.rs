@@ -1,5 +1,6 @@
 //! The event loop: input → camera → frame → overlay → present.
 
+use engine_cli::png::PngFile as _;
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -8,8 +9,8 @@ use std::time::Instant;
 use anyhow::{Context, Result, anyhow};
 use engine::camera::{Pose, read_path};
 use engine::disk::DiskModel;
-use engine::metrics::CsvStream;
 use engine::runtime::{Mode, RuntimeParams};
+use engine_cli::report::CsvStream;
 use engine_gpu::Colouring;
 use winit::application::ApplicationHandler;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};

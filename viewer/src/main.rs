@@ -176,10 +176,10 @@ fn disk_size(s: &str) -> Result<u64, String> {
 
 impl Args {
     /// The disk cache for scenes opened by URL, if asked for.
-    pub fn disk_cache(&self) -> Option<engine::scene_handle::DiskCacheSpec> {
+    pub fn disk_cache(&self) -> Option<engine_cli::scene_handle::DiskCacheSpec> {
         let dir = self.disk_cache.clone()?;
         let max_bytes = self.disk_cache_size;
-        Some(engine::scene_handle::DiskCacheSpec { dir, max_bytes })
+        Some(engine_cli::scene_handle::DiskCacheSpec { dir, max_bytes })
     }
 
     /// The outputs named on the command line, checked before the window opens
@@ -202,7 +202,7 @@ impl Args {
             ("--save-viewpoint", &self.save_viewpoint),
         ] {
             if let Some(p) = out {
-                engine::outfile::check_output(p, &inputs).with_context(|| flag.to_string())?;
+                engine_cli::outfile::check_output(p, &inputs).with_context(|| flag.to_string())?;
             }
         }
         Ok(())

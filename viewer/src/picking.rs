@@ -6,7 +6,8 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 use engine::format::objects::ObjectTable;
-use engine::{ByteSource, SceneFile, SceneHandle};
+use engine::{ByteSource, SceneFile};
+use engine_cli::SceneHandle;
 use glam::Vec3;
 use serde_json::Value;
 

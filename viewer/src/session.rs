@@ -11,7 +11,8 @@ use anyhow::{Context, Result};
 use engine::disk::DiskModel;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::tree::Look;
-use engine::{SceneFile, SceneHandle, Skeleton};
+use engine::{SceneFile, Skeleton};
+use engine_cli::SceneHandle;
 use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use glam::Vec3;
 
@@ -75,7 +76,7 @@ impl Session {
         (size, color_format, cache): (
             (u32, u32),
             wgpu::TextureFormat,
-            Option<&engine::scene_handle::DiskCacheSpec>,
+            Option<&engine_cli::scene_handle::DiskCacheSpec>,
         ),
     ) -> Result<Self> {
         let named = || path.display().to_string();

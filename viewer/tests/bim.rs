@@ -5,6 +5,7 @@
 mod common;
 
 use engine::image::RgbaImage;
+use engine_cli::png::PngFile as _;
 use glam::Vec3;
 
 use common::{artefacts, can_run, fzk_haus, scene_coverage, view};

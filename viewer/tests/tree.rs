@@ -6,6 +6,7 @@
 mod common;
 
 use engine::image::RgbaImage;
+use engine_cli::png::PngFile as _;
 
 use common::{artefacts, can_run, scene_coverage, view};
 

@@ -6,12 +6,14 @@
 
 mod common;
 
+use engine_cli::png::PngFile as _;
 use std::path::Path;
 
 use common::{artefacts, can_run, fzk_haus, scene, scene_coverage, view};
 
-use engine::camera::{PathKind, format_path, generate_path};
+use engine::camera::format_path;
 use engine::image::RgbaImage;
+use engine_cli::paths::{PathKind, generate_path};
 use glam::Vec3;
 
 #[test]

@@ -1,7 +1,30 @@
-//! Shared plumbing of the workspace's command-line programs: the error
-//! report, and the one validated parameter layer every binary parses its
-//! numbers and sizes through (ranges for every number; sizes capped by what
-//! the machine allows).
+//! Shared plumbing of the workspace's programs: the error report, and the
+//! one validated parameter layer every binary parses its numbers and sizes
+//! through (ranges for every number; sizes capped by what the machine
+//! allows); and what the `engine` library leaves to programs because it is
+//! I/O or process policy rather than data and algorithms:
+//! - [`outfile`]: the output-file policy of every writer (regular or new
+//!   files only, never an input, atomic, cleaned up on a signal);
+//! - [`png`]: images as PNG files;
+//! - [`disk`]: a scene file behind a disk model (page cache dropped or
+//!   warmed, precise sleeps);
+//! - [`scene_handle`], [`remote`] and [`disk_cache`]: a scene opened once,
+//!   from a file, a web server or object storage, through a local cache;
+//! - [`paths`]: the generated camera paths; [`report`]: the per-frame CSV and
+//!   the summary tables.
+
+pub mod disk;
+#[cfg(feature = "remote")]
+pub mod disk_cache;
+pub mod outfile;
+pub mod paths;
+pub mod png;
+#[cfg(feature = "remote")]
+pub mod remote;
+pub mod report;
+pub mod scene_handle;
+
+pub use scene_handle::SceneHandle;
 
 use engine::section::Section;
 use std::fmt::Display;

@@ -1,6 +1,6 @@
 //! Scenes at the edges: one node, one triangle, the smallest budget.
 
-use super::tests::{check_frames, params, pose, scene};
+use super::tests::{check_frames, params, pose, scene, start};
 use super::*;
 use crate::render::NoneRenderer;
 
@@ -25,8 +25,7 @@ fn a_one_node_scene_completes_in_every_mode() {
     let total: u64 = skel.reps.iter().map(|r| r.resident_len()).sum();
     for mode in [Mode::NoPre, Mode::Pre] {
         for budget in [total, 10 * total] {
-            let mut walk =
-                Walkthrough::start(skel.clone(), src.clone(), params(mode, budget)).unwrap();
+            let mut walk = start(skel.clone(), src.clone(), params(mode, budget)).unwrap();
             let n = frames_to_complete(&mut walk, budget, 500);
             assert!(n.is_some(), "{mode:?} at {budget} B never completes");
         }
@@ -56,8 +55,7 @@ fn the_full_detail_footprint_is_enough_and_one_byte_less_is_said() {
             assert_eq!(need, r.expanded_extent() + r.load_scratch(), "scene {k}");
         }
         for mode in [Mode::NoPre, Mode::Pre] {
-            let mut walk =
-                Walkthrough::start(skel.clone(), src.clone(), params(mode, need)).unwrap();
+            let mut walk = start(skel.clone(), src.clone(), params(mode, need)).unwrap();
             assert_eq!(walk.full_detail_need(), None);
             assert!(
                 frames_to_complete(&mut walk, need, 500).is_some(),
@@ -67,8 +65,7 @@ fn the_full_detail_footprint_is_enough_and_one_byte_less_is_said() {
             // when the root fits).
             let root = &skel.reps[0];
             if need > root.expanded_extent() + root.load_scratch() {
-                let walk =
-                    Walkthrough::start(skel.clone(), src.clone(), params(mode, need - 1)).unwrap();
+                let walk = start(skel.clone(), src.clone(), params(mode, need - 1)).unwrap();
                 assert_eq!(walk.full_detail_need(), Some(need), "scene {k}");
             }
         }

@@ -8,7 +8,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use super::tests::{check_frames, params, pose, throttled, wide};
+use super::tests::{check_frames, params, pose, start, start_throttled, wide};
 use super::*;
 use crate::disk::{FaultySource, SwitchingSource};
 use crate::io::MemSource;
@@ -43,7 +43,7 @@ fn walk_all(skel: &Arc<Skeleton>, src: impl Fn() -> Arc<dyn ByteSource>) -> Vec<
     [Mode::NoPre, Mode::Pre]
         .into_iter()
         .map(|mode| {
-            let mut walk = Walkthrough::start(skel.clone(), src(), params(mode, budget)).unwrap();
+            let mut walk = start(skel.clone(), src(), params(mode, budget)).unwrap();
             let frames = run_path(&mut walk, &poses(), &mut NoneRenderer::new(0.0), 0.0).unwrap();
             check_frames(&frames, budget);
             frames
@@ -135,13 +135,13 @@ fn reads_far_slower_than_the_stall_deadline_hold_no_frame_past_one_read() {
     let (skel, mem) = wide(64);
     let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
     // 30 ms a seek against a 2 ms deadline.
-    let src = throttled(&mem, Duration::from_millis(30), 20e6);
     let p = RuntimeParams {
         frame_period_s: 0.04,
         stall_deadline_s: 0.002,
         ..params(Mode::Pre, total / 5)
     };
-    let mut walk = Walkthrough::start(skel, src, p).unwrap();
+    let disk = (Duration::from_millis(30), 20e6);
+    let mut walk = start_throttled(skel, &mem, disk, p).unwrap();
     let path = poses();
     let frames = run_path(&mut walk, &path[..60], &mut NoneRenderer::new(0.0), 25.0).unwrap();
     check_frames(&frames, total / 5);

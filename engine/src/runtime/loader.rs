@@ -13,6 +13,7 @@
 
 mod ahead;
 mod classify;
+mod inbox;
 mod late;
 mod misses;
 mod outbox;
@@ -29,6 +30,7 @@ use std::sync::Arc;
 
 use crossbeam_channel::{Receiver, Sender, TryRecvError};
 
+use super::footprint::Footprint;
 use super::resident::{Purpose, ResidentSet};
 use super::{Cmd, Draw, Mode, Reply, RuntimeError, RuntimeParams};
 use crate::camera::View;
@@ -40,6 +42,7 @@ use crate::prefetch::Bins;
 use crate::skeleton::{RepId, Skeleton};
 use ahead::Lookahead;
 use classify::Classifier;
+use inbox::Inbox;
 use late::LateReads;
 use misses::MissAccount;
 use outbox::Outbox;
@@ -48,7 +51,7 @@ use pacing::Pacing;
 use pages::PageCache;
 use plan::Plan;
 use retry::Retry;
-use span::{FileOrder, IoCosts, Partial, preempted};
+use span::{FileOrder, IoCosts, Partial};
 use sweep::Sweep;
 
 /// P_R is gone (its receiver dropped): P_I stops.
@@ -72,10 +75,12 @@ pub(super) struct Loader {
     index: Arc<FrontIndex>,
     source: Arc<dyn ByteSource>,
     params: RuntimeParams,
-    cmds: Receiver<Cmd>,
+    /// P_I's side of the footprint, and its shares.
+    fp: Footprint,
+    /// P_R's commands, one taken early by a preemption check kept.
+    inbox: Inbox,
     /// The replies to P_R, draws grouped.
     out: Outbox,
-    pending: Option<Cmd>,
     /// Where P_I's timing comes from (the system's clock, or a test's).
     clock: Arc<dyn crate::clock::Clock>,
     /// The resident reps, their bytes, pins and the eviction rule.
@@ -114,7 +119,7 @@ impl Loader {
         index: Arc<FrontIndex>,
         source: Arc<dyn ByteSource>,
         pools: Arc<Vec<u64>>,
-        params: RuntimeParams,
+        (params, fp): (RuntimeParams, Footprint),
         (cmds, replies): (Receiver<Cmd>, Sender<Reply>),
         clock: Arc<dyn crate::clock::Clock>,
     ) -> Self {
@@ -143,9 +148,9 @@ impl Loader {
             source,
             pages: PageCache::new(params.page_bytes),
             params,
-            cmds,
+            fp,
+            inbox: Inbox::new(cmds),
             out: Outbox::new(replies),
-            pending: None,
             clock,
             stats: LoaderCounters::default(),
             costs: IoCosts::default(),
@@ -164,14 +169,17 @@ impl Loader {
             return;
         }
         loop {
-            let cmd = if let Some(c) = self.pending.take() {
-                c
+            let cmd = if self.inbox.waiting() {
+                match self.inbox.try_recv() {
+                    Ok(c) => c,
+                    Err(_) => continue,
+                }
             } else if !self.wait_fetch
                 && (self.late.queue.pending()
                     || (self.params.mode == Mode::Pre
                         && (!self.classes.bins.is_empty() || self.ahead.queue.pending())))
             {
-                match self.cmds.try_recv() {
+                match self.inbox.try_recv() {
                     Ok(c) => c,
                     Err(TryRecvError::Empty) => {
                         if !self.serve(|l| &mut l.late.queue) && self.params.mode == Mode::Pre {
@@ -183,7 +191,7 @@ impl Loader {
                 }
             } else {
                 let t = self.clock.now();
-                let c = self.cmds.recv();
+                let c = self.inbox.recv();
                 if !self.wait_fetch {
                     self.stats.idle_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
                 }
@@ -218,6 +226,7 @@ impl Loader {
                     }
                 }
                 Cmd::Unusable(r) => self.unusable(r),
+                Cmd::Settle(_) => {} // kept by the inbox
                 Cmd::Shutdown => return,
             }
         }
@@ -253,12 +262,14 @@ impl Loader {
     /// Classifies the front of `view` for prefetching (when it moved), and
     /// plans the sweep and the lookahead from F_I's front.
     fn classify(&mut self, view: &View, turn_rad: f32) {
-        let room = self.rep_budget(self.params.budget_bytes, Purpose::Prefetch);
+        let Some(room) = self.rep_room(Purpose::Prefetch) else {
+            return; // in core: nothing is prefetched
+        };
         let plan = Plan::of(&self.skeleton, &self.index, &self.params).with_room(room);
         // A fetch command that arrives meanwhile cuts the classification
         // short: Stage II comes first.
-        let (pending, cmds) = (&mut self.pending, &self.cmds);
-        let mut stop = || pending.is_some() || preempted(pending, cmds);
+        let inbox = &mut self.inbox;
+        let mut stop = || inbox.waiting() || inbox.preempted();
         let Some((front, margin)) = self
             .classes
             .classify_front(&plan, &self.res, view, turn_rad, &mut stop)
@@ -313,7 +324,6 @@ impl Loader {
     fn start_up(&mut self) -> Result<(), RuntimeError> {
         let root = &self.skeleton.nodes[0];
         if self.params.mode == Mode::Incore {
-            self.params.budget_bytes = u64::MAX;
             for r in 0..self.skeleton.reps.len() as RepId {
                 // Unreadable reps are substituted at draw time, as in the other modes.
                 let _ = self.load(r, Purpose::Demand);
@@ -329,12 +339,7 @@ impl Loader {
         }
         let r = root.first_rep;
         let need = self.cost(r) + load_scratch(&self.skeleton.reps[r as usize]);
-        if need > self.params.budget_bytes {
-            return Err(RuntimeError::BudgetTooSmall {
-                budget: self.params.budget_bytes,
-                need,
-            });
-        }
+        self.fp.check_root(need)?;
         match self.load(r, Purpose::Demand) {
             Ok(_) => {
                 self.res.keep(r);
@@ -377,13 +382,13 @@ impl Loader {
                     })
                     .sum::<u64>()
         };
-        let budget = self.params.budget_bytes;
+        let room = self.fp.reps();
         let outs: Vec<Draw> = fading
             .iter()
             .filter_map(|&r| {
                 let payload = self.res.payload(r)?.clone();
                 let c = self.cost(r);
-                if need.saturating_add(c) > budget {
+                if room.is_some_and(|b| need.saturating_add(c) > b) {
                     return None;
                 }
                 need += c;

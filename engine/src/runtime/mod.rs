@@ -28,7 +28,10 @@ mod edge_tests;
 mod fade_tests;
 #[cfg(test)]
 mod fault_tests;
+pub mod footprint;
 mod loader;
+#[cfg(test)]
+mod lookahead_tests;
 mod mts;
 #[cfg(test)]
 mod page_tests;
@@ -53,6 +56,7 @@ use crate::io::ByteSource;
 use crate::metrics::{FrameMetrics, LoaderCounters};
 use crate::render::{DrawStyle, Fade, Renderer};
 use crate::skeleton::{RepId, Skeleton};
+pub use footprint::{Footprint, Held, Shares};
 pub use params::{Mode, PrefetchParams, RuntimeError, RuntimeParams};
 
 /// The page size for scenes read over a network (`hlod-bench --page auto`,
@@ -78,6 +82,10 @@ enum Cmd {
     },
     /// P_R cannot use this rep (a view-dependence tree whose store failed).
     Unusable(RepId),
+    /// Answer on the sender once P_I has nothing more to do before the
+    /// next fetch command (nothing queued, or its pacing says wait): on a
+    /// simulated clock a paced walk waits for it instead of sleeping.
+    Settle(crossbeam_channel::Sender<()>),
     Shutdown,
 }
 
@@ -124,6 +132,7 @@ pub struct Walkthrough {
     fades: crate::fade::Fades,
     clock: Arc<dyn crate::clock::Clock>,
     origin: Instant,
+    footprint: Footprint,
 }
 
 impl std::fmt::Debug for Walkthrough {
@@ -176,21 +185,19 @@ impl Walkthrough {
             pools.clone(),
             params.mode == Mode::Incore,
             params.mt_cache,
+            clock.clone(),
         );
         let (cmd_tx, cmd_rx) = bounded(2);
         let (reply_tx, reply_rx) = bounded(loader::reply_capacity(skeleton.reps.len()));
         let (ready_tx, ready_rx) = bounded(1);
         // P_I's reps get the footprint less the occluder store.
-        let loader_params = RuntimeParams {
-            budget_bytes: params.budget_bytes - params.occlusion_bytes.min(params.budget_bytes),
-            ..params
-        };
+        let fp = Footprint::new(&params)?;
         let l = loader::Loader::new(
             skeleton.clone(),
             index.clone(),
             source,
             pools,
-            loader_params,
+            (params, fp),
             (cmd_rx, reply_tx),
             clock.clone(),
         );
@@ -207,15 +214,15 @@ impl Walkthrough {
             Err(_) => return Err(RuntimeError::LoaderGone),
         }
         let skeleton_reps = skeleton.reps.len();
-        if let Some(need) = unfit(&skeleton, &params) {
+        if let Some(need) = fp.unfit(skeleton.full_detail_bytes()) {
             tracing::warn!(
                 "the footprint for reps ({} B: the budget of {} B less {} B for occluders) is \
                  below the {need} B that drawing every rep as itself needs (the largest rep \
                  while it loads, beside the root's coarsest): the reps that do not fit are \
                  drawn as coarser ancestors, and the view never completes",
-                loader_params.budget_bytes,
+                fp.reps().unwrap_or(0),
                 params.budget_bytes,
-                params.occlusion_bytes.min(params.budget_bytes)
+                fp.occluders()
             );
         }
         Ok(Self {
@@ -231,27 +238,48 @@ impl Walkthrough {
             select: select::FrontSelect::new(
                 index.clone(),
                 skeleton_reps,
-                params.occlusion_bytes,
+                fp.occluders(),
                 params.governor,
                 params.tolerance_px,
                 // In core nothing is loaded: only a triangle target applies.
-                if params.mode == Mode::Incore {
-                    u64::MAX
-                } else {
-                    loader_params.budget_bytes
-                },
+                fp.reps(),
+                clock.clone(),
             ),
             frame_tol: params.tolerance_px,
             fades: crate::fade::Fades::new(params.fade_s, skeleton_reps),
+            footprint: fp,
             origin: clock.now(),
             clock,
         })
     }
 
+    /// The clock P_R and P_I read.
+    pub fn clock(&self) -> &Arc<dyn crate::clock::Clock> {
+        &self.clock
+    }
+
+    /// Returns once P_I has done what it would do before the next frame
+    /// (its queued prefetches, up to what its pacing allows). On a
+    /// simulated clock ([`crate::clock::Clock::is_simulated`]) time passes
+    /// only as reads and waits say, so a paced walk lets P_I work this way
+    /// where a real one would sleep ([`run_path_each`]).
+    pub fn settle(&mut self) -> Result<(), RuntimeError> {
+        let (tx, rx) = bounded(1);
+        self.cmd
+            .send(Cmd::Settle(tx))
+            .map_err(|_| RuntimeError::LoaderGone)?;
+        rx.recv().map_err(|_| RuntimeError::LoaderGone)
+    }
+
     /// `None` when every rep can be drawn as itself under this footprint;
     /// else the footprint that would take (see [`Skeleton::full_detail_bytes`]).
     pub fn full_detail_need(&self) -> Option<u64> {
-        unfit(&self.skeleton, &self.params)
+        self.footprint.unfit(self.skeleton.full_detail_bytes())
+    }
+
+    /// The footprint and its shares.
+    pub fn footprint(&self) -> &Footprint {
+        &self.footprint
     }
 
     /// The parameters in force.
@@ -309,7 +337,7 @@ impl Walkthrough {
         renderer: &mut dyn Renderer,
     ) -> Result<FrameMetrics, RuntimeError> {
         let pose = front_pose;
-        let t0 = Instant::now();
+        let t0 = self.clock.now();
         let view = self.view(pose);
         let sel = self.select.select(&self.skeleton, &view);
         let (front, hidden) = (sel.front, sel.hidden);
@@ -358,9 +386,9 @@ impl Walkthrough {
             let reply = match self.replies.try_recv() {
                 Ok(r) => r,
                 Err(_) => {
-                    let w = Instant::now();
+                    let w = self.clock.now();
                     let r = self.replies.recv().map_err(|_| RuntimeError::LoaderGone)?;
-                    wait += w.elapsed().as_secs_f64() * 1e3;
+                    wait += select::ms_since(self.clock.as_ref(), w);
                     r
                 }
             };
@@ -419,7 +447,7 @@ impl Walkthrough {
         m.gpu_bytes = renderer.gpu_bytes();
         m.wait_ms = wait;
         m.loader = stats;
-        m.frame_ms = t0.elapsed().as_secs_f64() * 1e3;
+        m.frame_ms = select::ms_since(self.clock.as_ref(), t0);
         let draw_ms = m.frame_ms - m.front_ms - m.occlusion_ms - m.wait_ms;
         self.select
             .observe_frame(m.frame_ms, draw_ms.max(0.0), m.drawn_tris);
@@ -563,23 +591,16 @@ pub fn run_path_each<E: std::error::Error + 'static>(
     } else {
         std::time::Duration::ZERO
     };
-    let mut next = Instant::now();
+    let clock = walk.clock().clone();
+    let mut next = clock.now();
     for pose in poses {
-        let now = Instant::now();
-        if next > now {
-            std::thread::sleep(next - now);
+        if !period.is_zero() && clock.is_simulated() {
+            walk.settle()?;
         }
-        let start = Instant::now();
+        clock.sleep_until(next);
+        let start = clock.now();
         each(walk.frame(pose, renderer)?).map_err(PathRunError::Sink)?;
         next = start + period;
     }
     Ok(())
-}
-
-/// The footprint P_I's reps would need for every rep to be drawn as itself,
-/// when the walk's is smaller (never in core, which loads everything).
-fn unfit(skeleton: &Skeleton, params: &RuntimeParams) -> Option<u64> {
-    let reps = params.budget_bytes - params.occlusion_bytes.min(params.budget_bytes);
-    let need = skeleton.full_detail_bytes();
-    (params.mode != Mode::Incore && reps < need).then_some(need)
 }

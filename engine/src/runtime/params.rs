@@ -198,6 +198,8 @@ pub enum RuntimeError {
 impl RuntimeParams {
     /// Rejects nonsense values.
     pub fn check(&self) -> Result<(), RuntimeError> {
+        // The budget and its shares: checked where they are derived.
+        super::footprint::Footprint::new(self)?;
         let bad = |s: &str| Err(RuntimeError::Params(s.to_string()));
         if !(self.tolerance_px > 0.0 && self.tolerance_px <= 1e5) {
             return bad("tolerance must be in (0, 100000] pixels");
@@ -221,9 +223,6 @@ impl RuntimeParams {
         if !(self.fade_s >= 0.0 && self.fade_s <= 10.0) {
             return bad("fade time must be in [0, 10] seconds");
         }
-        if self.mode != Mode::Incore && self.occlusion_bytes > self.budget_bytes / 2 {
-            return bad("the occluder store may take at most half the budget");
-        }
         if let Some(g) = &self.governor {
             g.check().map_err(RuntimeError::Params)?;
             if g.max_tolerance_px < self.tolerance_px {
@@ -232,9 +231,6 @@ impl RuntimeParams {
         }
         if self.page_bytes != 0 && !(4096..=16 << 20).contains(&self.page_bytes) {
             return bad("page size must be 0 (off) or in 4 KiB..=16 MiB");
-        }
-        if !(self.page_share.is_finite() && (0.0..=0.9).contains(&self.page_share)) {
-            return bad("the pages' share of the budget must be in [0, 0.9]");
         }
         if self.block_bytes < 512 {
             return bad("block size must be at least 512 bytes");
@@ -250,9 +246,6 @@ impl RuntimeParams {
             if !(v.is_finite() && v >= 0.0) {
                 return bad("F_I margins must be finite and non-negative");
             }
-        }
-        if !(p.speculative_share > 0.0 && p.speculative_share <= 1.0) {
-            return bad("the speculative share must be in (0, 1]");
         }
         if !(p.all_around_fit.is_finite() && p.all_around_fit >= 0.0) {
             return bad("the all-around fit must be a non-negative share of the budget");

@@ -6,7 +6,7 @@ use std::sync::{Arc, Mutex};
 
 use glam::Vec3;
 
-use super::tests::{check_frames, params, pose, wide};
+use super::tests::{check_frames, params, pose, start, wide};
 use super::*;
 use crate::format::RepRecord;
 use crate::io::ByteSource;
@@ -78,7 +78,7 @@ fn walk(mode: Mode, section: Section, from: usize) -> (Vec<RepId>, Vec<(u64, u64
         coalesce_max_gap: 0,
         ..params(mode, budget)
     };
-    let mut w = Walkthrough::start(skel, logged.clone(), p).unwrap();
+    let mut w = start(skel, logged.clone(), p).unwrap();
     let mut drawn = Drawn::default();
     let mut reads_from = 0;
     for (i, ps) in along().iter().enumerate() {
@@ -170,7 +170,7 @@ fn hidden_elements_are_neither_drawn_nor_read() {
             coalesce_max_gap: 0,
             ..params(mode, total / 3)
         };
-        let mut w = Walkthrough::start(skel.clone(), logged.clone(), p).unwrap();
+        let mut w = start(skel.clone(), logged.clone(), p).unwrap();
         let reads0 = logged.reads.lock().unwrap().len();
         if hide {
             w.set_hiding(&hiding);

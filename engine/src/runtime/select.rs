@@ -3,15 +3,20 @@
 //! tolerance the quality governor (`governor.rs`) chooses.
 
 use std::sync::Arc;
-use std::time::Instant;
 
 use crate::camera::View;
+use crate::clock::Clock;
 use crate::format::RepRecord;
 use crate::front::FrontIndex;
 use crate::governor::{FrontCost, Governor, GovernorParams};
 use crate::metrics::FrameMetrics;
 use crate::occlusion::OcclusionCuller;
 use crate::skeleton::{RepId, Skeleton};
+
+/// Milliseconds on `clock` since `t`.
+pub(super) fn ms_since(clock: &dyn Clock, t: std::time::Instant) -> f64 {
+    clock.now().saturating_duration_since(t).as_secs_f64() * 1e3
+}
 
 /// One frame's front.
 #[derive(Debug, Default)]
@@ -37,11 +42,13 @@ pub(super) struct FrontSelect {
     occlusion: Option<OcclusionCuller>,
     governor: Option<Governor>,
     tolerance_px: f32,
-    /// Bytes the front's reps may take (P_I's footprint).
-    capacity: u64,
+    /// Bytes the front's reps may take (P_I's footprint; `None` in core).
+    capacity: Option<u64>,
     /// The section of the frame being drawn: a rep it cuts is no occluder
     /// (what hides others may be cut away).
     section: crate::section::Section,
+    /// P_R's clock: what the front and the culling took.
+    clock: Arc<dyn Clock>,
 }
 
 impl FrontSelect {
@@ -51,7 +58,8 @@ impl FrontSelect {
         occlusion_bytes: u64,
         governor: Option<GovernorParams>,
         tolerance_px: f32,
-        capacity: u64,
+        capacity: Option<u64>,
+        clock: Arc<dyn Clock>,
     ) -> Self {
         Self {
             index,
@@ -60,6 +68,7 @@ impl FrontSelect {
             tolerance_px,
             capacity,
             section: crate::section::Section::NONE,
+            clock,
         }
     }
 
@@ -74,16 +83,16 @@ impl FrontSelect {
         out.hidden.clear();
         out.tolerance_px = tol;
         out.tries += 1;
-        let t = Instant::now();
+        let t = self.clock.now();
         let fs = self
             .index
             .compute(view, &view.frustum(0.0), tol, &mut out.front);
         out.nodes_visited += fs.nodes_visited;
-        out.front_ms += t.elapsed().as_secs_f64() * 1e3;
+        out.front_ms += ms_since(self.clock.as_ref(), t);
         if let Some(c) = &mut self.occlusion {
-            let t = Instant::now();
+            let t = self.clock.now();
             c.cull(view, s, &self.index, tol, &mut out.front, &mut out.hidden);
-            out.occlusion_ms += t.elapsed().as_secs_f64() * 1e3;
+            out.occlusion_ms += ms_since(self.clock.as_ref(), t);
         }
         let mut cost = FrontCost::default();
         for &r in &out.front {
@@ -143,9 +152,9 @@ impl FrontSelect {
         let Some(c) = &mut self.occlusion else {
             return;
         };
-        let t = Instant::now();
+        let t = self.clock.now();
         c.end_frame(s, &self.index, front);
-        m.occlusion_ms += t.elapsed().as_secs_f64() * 1e3;
+        m.occlusion_ms += ms_since(self.clock.as_ref(), t);
         let cs = c.stats();
         m.occluders = cs.occluders;
         m.occluded_reps = cs.occluded;

@@ -99,14 +99,28 @@ fn copy_and_model(
     (MemSource::new(bytes), model)
 }
 
-/// `src` behind a disk model: `latency` a seek, `bytes_per_sec`.
-pub(super) fn throttled(
+/// Starts a walk on a manual clock of its own: time passes only as the
+/// walk's reads, pacing and modelled drawing say, so that no runtime test
+/// depends on the machine's speed or load.
+pub(super) fn start(
+    skel: Arc<Skeleton>,
+    src: Arc<dyn ByteSource>,
+    p: RuntimeParams,
+) -> Result<Walkthrough, RuntimeError> {
+    Walkthrough::start_with_clock(skel, src, p, Arc::new(crate::clock::ManualClock::new()))
+}
+
+/// [`start`] with `src` behind a disk model (`latency` a seek,
+/// `bytes_per_sec`) on the walk's manual clock.
+pub(super) fn start_throttled(
+    skel: Arc<Skeleton>,
     src: &Arc<dyn ByteSource>,
-    latency: std::time::Duration,
-    bytes_per_sec: f64,
-) -> Arc<dyn ByteSource> {
-    let (mem, model) = copy_and_model(src, latency, bytes_per_sec);
-    Arc::new(crate::disk::ThrottledSource::new(mem, model))
+    (latency, bytes_per_sec): (std::time::Duration, f64),
+    p: RuntimeParams,
+) -> Result<Walkthrough, RuntimeError> {
+    let clock = Arc::new(crate::clock::ManualClock::new());
+    let src = clocked(src, latency, bytes_per_sec, &clock);
+    Walkthrough::start_with_clock(skel, src, p, clock)
 }
 
 /// `src` behind a simulated device on `clock` (reads advance it by their
@@ -118,7 +132,11 @@ pub(super) fn clocked(
     clock: &Arc<crate::clock::ManualClock>,
 ) -> Arc<dyn ByteSource> {
     let (mem, model) = copy_and_model(src, latency, bytes_per_sec);
-    Arc::new(crate::disk::ClockedSource::new(mem, model, clock.clone()))
+    Arc::new(crate::disk::ThrottledSource::with_clock(
+        mem,
+        model,
+        clock.clone(),
+    ))
 }
 
 proptest! {
@@ -140,11 +158,6 @@ proptest! {
         let root = skel.reps[0].resident_len() + super::loader::load_scratch(&skel.reps[0]);
         let budget = root + ((total - root) as f64 * budget_frac) as u64;
         let mode = if prefetch { Mode::Pre } else { Mode::NoPre };
-        let src = if deadline > 0.0 {
-            throttled(&src, std::time::Duration::from_micros(200), 200e6)
-        } else {
-            src
-        };
         // The occluder store comes out of the footprint: P_I keeps enough
         // for the root's rep.
         let occlusion_bytes = if occlusion { ((budget - root) / 2).min(budget / 8) } else { 0 };
@@ -155,7 +168,13 @@ proptest! {
             fade_s: if fade { 0.02 } else { 0.0 },
             ..params(mode, budget)
         };
-        let mut walk = Walkthrough::start(skel, src, p).unwrap();
+        // A deadline is tried on a disk with 0.2 ms seeks.
+        let disk = (std::time::Duration::from_micros(200), 200e6);
+        let mut walk = if deadline > 0.0 {
+            start_throttled(skel, &src, disk, p).unwrap()
+        } else {
+            start(skel, src, p).unwrap()
+        };
         let mut r = NoneRenderer::new(0.0);
         // A random walk, with jumps, along and around the row of leaves.
         let (mut x, mut y, mut z, mut yaw) = (0.0f32, 0.5f32, 3.0f32, 0.0f32);
@@ -197,7 +216,7 @@ fn compressed_reps_are_expanded_counted_as_resident_and_drawn_as_in_core() {
         (Mode::NoPre, total / 4),
         (Mode::Pre, total / 4),
     ] {
-        let mut walk = Walkthrough::start(skel.clone(), src.clone(), params(mode, budget)).unwrap();
+        let mut walk = start(skel.clone(), src.clone(), params(mode, budget)).unwrap();
         let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 0.0).unwrap();
         if mode == Mode::Incore {
             assert!(frames.iter().all(|f| f.loader.resident_bytes == total));
@@ -236,7 +255,7 @@ fn thousands_of_frames_under_a_tight_budget_do_not_deadlock() {
     let (skel, src) = wide(128);
     let budget = u64::from(skel.reps[0].len) * 6;
     for mode in [Mode::NoPre, Mode::Pre] {
-        let mut walk = Walkthrough::start(skel.clone(), src.clone(), params(mode, budget)).unwrap();
+        let mut walk = start(skel.clone(), src.clone(), params(mode, budget)).unwrap();
         let poses: Vec<Pose> = (0..3000)
             .map(|i| {
                 let t = i as f32 * 0.05;
@@ -262,7 +281,7 @@ fn thousands_of_frames_under_a_tight_budget_do_not_deadlock() {
 fn incore_holds_everything_and_fetches_nothing_per_frame() {
     let (skel, src) = wide(16);
     let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
-    let mut walk = Walkthrough::start(skel, src, params(Mode::Incore, 1)).unwrap();
+    let mut walk = start(skel, src, params(Mode::Incore, 1)).unwrap();
     let poses: Vec<Pose> = (0..50)
         .map(|i| pose(i as f32 * 0.4, 0.5, 2.0, 1.2))
         .collect();
@@ -284,8 +303,7 @@ fn prefetching_cuts_demand_fetches_on_a_smooth_path() {
         .collect();
     let mut bytes = Vec::new();
     for mode in [Mode::NoPre, Mode::Pre] {
-        let mut walk =
-            Walkthrough::start(skel.clone(), src.clone(), params(mode, total / 3)).unwrap();
+        let mut walk = start(skel.clone(), src.clone(), params(mode, total / 3)).unwrap();
         // A paced walk leaves P_I time to prefetch between frames.
         let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 500.0).unwrap();
         check_frames(&frames, total / 3);
@@ -305,8 +323,7 @@ fn a_failing_rep_is_logged_substituted_and_the_run_goes_on() {
     let bad = skeleton.reps[4]; // node 2's finest-but-one... any leaf rep
     let src = FaultySource::new(MemSource::new(bytes), vec![(bad.offset, bad.offset + 1)]);
     let skel = Arc::new(skeleton);
-    let mut walk =
-        Walkthrough::start(skel.clone(), Arc::new(src), params(Mode::NoPre, 1 << 20)).unwrap();
+    let mut walk = start(skel.clone(), Arc::new(src), params(Mode::NoPre, 1 << 20)).unwrap();
     let mut errors = 0;
     let mut substituted = 0;
     for i in 0..200 {
@@ -330,22 +347,22 @@ fn start_up_errors_are_typed() {
     let (skel, src) = wide(8);
     let root = u64::from(skel.reps[0].len);
     assert!(matches!(
-        Walkthrough::start(skel.clone(), src.clone(), params(Mode::NoPre, root - 1)),
+        start(skel.clone(), src.clone(), params(Mode::NoPre, root - 1)),
         Err(RuntimeError::BudgetTooSmall { .. })
     ));
     let mut p = params(Mode::Pre, 1 << 20);
     p.tolerance_px = f32::NAN;
     assert!(matches!(
-        Walkthrough::start(skel.clone(), src.clone(), p),
+        start(skel.clone(), src.clone(), p),
         Err(RuntimeError::Params(_))
     ));
     let mut p = params(Mode::Pre, 1 << 20);
     p.prefetch.delta_px = 0.5;
-    assert!(Walkthrough::start(skel.clone(), src.clone(), p).is_err());
+    assert!(start(skel.clone(), src.clone(), p).is_err());
     let mut p = params(Mode::Pre, 1 << 20);
     p.prefetch.speculative_share = 0.0;
     assert!(matches!(
-        Walkthrough::start(skel.clone(), src.clone(), p),
+        start(skel.clone(), src.clone(), p),
         Err(RuntimeError::Params(_))
     ));
     let bad = Arc::new(FaultySource::new(
@@ -353,7 +370,7 @@ fn start_up_errors_are_typed() {
         vec![(0, u64::MAX)],
     ));
     assert!(matches!(
-        Walkthrough::start(skel, bad, params(Mode::NoPre, 1 << 20)),
+        start(skel, bad, params(Mode::NoPre, 1 << 20)),
         Err(RuntimeError::RootUnreadable(_))
     ));
     assert!(Mode::parse("fast").is_err());
@@ -383,8 +400,7 @@ impl Renderer for Panicky {
 fn a_renderer_panic_mid_frame_does_not_hang_shutdown() {
     // Many reps per frame so that P_I fills the reply channel while P_R unwinds.
     let (skel, src) = wide(1024);
-    let walk =
-        std::sync::Mutex::new(Walkthrough::start(skel, src, params(Mode::Incore, 1)).unwrap());
+    let walk = std::sync::Mutex::new(start(skel, src, params(Mode::Incore, 1)).unwrap());
     let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let mut w = walk.lock().unwrap();
         let mut renderer = Panicky(3);
@@ -508,7 +524,7 @@ fn an_all_around_f_i_and_the_sweep_leave_nothing_missing_after_a_sudden_turn() {
             },
             ..params(Mode::Pre, total)
         };
-        let mut walk = Walkthrough::start(skel.clone(), src.clone(), p).unwrap();
+        let mut walk = start(skel.clone(), src.clone(), p).unwrap();
         let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 20.0).unwrap();
         check_frames(&frames, total);
         frames
@@ -527,72 +543,6 @@ fn an_all_around_f_i_and_the_sweep_leave_nothing_missing_after_a_sudden_turn() {
     assert!(narrow.last().unwrap().loader.missing_reps > 0);
 }
 
-/// Walks `poses` through `wide(64)` with F_I as F_R and no PAR/CHD, so
-/// that only the lookahead (over `lookahead_frames`) foresees what a frame
-/// will draw; checks the budget and returns the frames.
-fn lookahead_walk(poses: &[Pose], lookahead_frames: u32) -> Vec<FrameMetrics> {
-    let (skel, src) = wide(64);
-    let total: u64 = skel.reps.iter().map(|r| u64::from(r.len)).sum();
-    let p = RuntimeParams {
-        frame_period_s: 0.05,
-        prefetch: PrefetchParams {
-            depth: 0,
-            margin_deg: 0.0,
-            max_margin_deg: 0.0,
-            all_around_fit: 0.0,
-            lookahead_frames,
-            ..PrefetchParams::default()
-        },
-        ..params(Mode::Pre, total)
-    };
-    let mut walk = Walkthrough::start(skel, src, p).unwrap();
-    let frames = run_path(&mut walk, poses, &mut NoneRenderer::new(0.0), 20.0).unwrap();
-    check_frames(&frames, total);
-    frames
-}
-
-#[test]
-fn the_lookahead_prefetches_the_lod_switches_of_an_approach() {
-    // Along the row of leaves at one leaf a frame: each leaf switches to a
-    // finer LOD as the camera comes within 16 and then 8 leaves of it.
-    let along = std::f32::consts::FRAC_PI_2;
-    let poses: Vec<Pose> = (0..50)
-        .map(|i| pose(100.0 - i as f32, 0.5, 0.5, along))
-        .collect();
-    // The motion is known from the second fetch command on.
-    let run = |k| -> u32 {
-        lookahead_walk(&poses, k)[3..]
-            .iter()
-            .map(|f| f.loader.miss_lod)
-            .sum()
-    };
-    let without = run(0);
-    assert!(
-        without > 10,
-        "{without} LOD switches missed without lookahead"
-    );
-    assert_eq!(run(10), 0, "the lookahead missed a switch");
-}
-
-#[test]
-fn the_lookahead_follows_a_pan_and_prefetches_what_turns_into_view() {
-    // In the middle of the row, turning round at 6° a frame: each frame
-    // brings leaves into view that were behind the camera.
-    let poses: Vec<Pose> = (0..40)
-        .map(|i| pose(32.0, 0.5, 0.5, (i as f32 * 6.0).to_radians()))
-        .collect();
-    let run = |k| -> u32 {
-        let frames = lookahead_walk(&poses, k);
-        // P_I's classification is timed.
-        assert!(frames.iter().any(|f| f.loader.classify_ms > 0.0));
-        // The rotation is known from the second fetch command on.
-        frames[3..].iter().map(|f| f.loader.miss_new).sum()
-    };
-    let without = run(0);
-    assert!(without > 10, "{without} reps turned into view unprefetched");
-    assert_eq!(run(10), 0, "the lookahead missed what the turn showed");
-}
-
 #[test]
 fn f_i_goes_all_around_when_the_all_around_front_fits_even_after_a_slow_first_frame() {
     let (skel, mem) = wide(64);
@@ -605,7 +555,6 @@ fn f_i_goes_all_around_when_the_all_around_front_fits_even_after_a_slow_first_fr
     let mut poses = vec![pose(30.0, 0.5, 0.5, -half); 40];
     poses.push(pose(30.0, 0.5, 0.5, half));
     let run = |budget: u64, all_around_fit: f32| {
-        let src = throttled(&mem, std::time::Duration::from_millis(5), 0.5e6);
         let p = RuntimeParams {
             frame_period_s: 0.05,
             prefetch: PrefetchParams {
@@ -614,7 +563,8 @@ fn f_i_goes_all_around_when_the_all_around_front_fits_even_after_a_slow_first_fr
             },
             ..params(Mode::Pre, budget)
         };
-        let mut walk = Walkthrough::start(skel.clone(), src, p).unwrap();
+        let disk = (std::time::Duration::from_millis(5), 0.5e6);
+        let mut walk = start_throttled(skel.clone(), &mem, disk, p).unwrap();
         let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 20.0).unwrap();
         check_frames(&frames, budget);
         frames
@@ -642,7 +592,6 @@ fn a_stall_deadline_draws_ancestors_for_what_is_late_and_loads_it_after_the_fram
     let mut poses = vec![pose(30.0, 0.5, 0.5, -half); 5];
     poses.extend(vec![pose(30.0, 0.5, 0.5, half); 30]);
     let run = |deadline_s: f32, mode: Mode| {
-        let src = throttled(&mem, std::time::Duration::from_millis(5), 20e6);
         let p = RuntimeParams {
             frame_period_s: 0.04,
             stall_deadline_s: deadline_s,
@@ -654,7 +603,8 @@ fn a_stall_deadline_draws_ancestors_for_what_is_late_and_loads_it_after_the_fram
             },
             ..params(mode, total)
         };
-        let mut walk = Walkthrough::start(skel.clone(), src, p).unwrap();
+        let disk = (std::time::Duration::from_millis(5), 20e6);
+        let mut walk = start_throttled(skel.clone(), &mem, disk, p).unwrap();
         let frames = run_path(&mut walk, &poses, &mut NoneRenderer::new(0.0), 25.0).unwrap();
         check_frames(&frames, total);
         frames

@@ -18,7 +18,6 @@
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
-use std::time::Instant;
 
 use glam::Vec3;
 
@@ -153,6 +152,8 @@ pub(super) struct Trees {
     live: BTreeMap<RepId, Tree>,
     mts: BTreeMap<RepId, super::mts::MtLive>,
     mt_mode: crate::mt::cache::CacheMode,
+    /// P_R's clock: what refining and drawing the trees took.
+    clock: Arc<dyn crate::clock::Clock>,
 }
 
 impl Trees {
@@ -162,6 +163,7 @@ impl Trees {
         pools: Arc<Vec<u64>>,
         incore: bool,
         mt_mode: crate::mt::cache::CacheMode,
+        clock: Arc<dyn crate::clock::Clock>,
     ) -> Self {
         Self {
             source,
@@ -171,6 +173,7 @@ impl Trees {
             live: BTreeMap::new(),
             mts: BTreeMap::new(),
             mt_mode,
+            clock,
         }
     }
 
@@ -233,13 +236,13 @@ impl Trees {
         renderer: &mut dyn Renderer,
         out: &mut TreeFrame,
     ) -> bool {
-        let t0 = Instant::now();
+        let t0 = self.clock.now();
         let done = if self.skeleton.reps[r as usize].is_mt() {
             self.cut_and_draw(r, payload, view, tolerance_px, renderer, out)
         } else {
             self.refine_and_draw(r, payload, view, tolerance_px, renderer, out)
         };
-        out.ms += t0.elapsed().as_secs_f64() * 1e3;
+        out.ms += super::select::ms_since(self.clock.as_ref(), t0);
         if let Err(why) = &done {
             tracing::warn!("paged rep {r}: {why}; its finest static LOD is drawn instead");
             self.live.remove(&r);

@@ -121,7 +121,10 @@ fn runs_and_rejects_bad_input_clearly() {
     ] {
         assert!(d.join("o").join(f).exists(), "{f}");
     }
-    let plot = engine::image::RgbaImage::load_png(&d.join("o/frame_time.png")).unwrap();
+    let plot = <engine::image::RgbaImage as engine_cli::png::PngFile>::load_png(
+        &d.join("o/frame_time.png"),
+    )
+    .unwrap();
     assert!(
         plot.coverage() > 0.02,
         "the plot has axes, labels and lines"

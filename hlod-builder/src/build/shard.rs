@@ -219,7 +219,7 @@ pub fn build_shard_file(
     params.check()?;
     let inputs = crate::import::model_files(input);
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-    let out = engine::outfile::OutputFile::create(output, &inputs)?;
+    let out = engine_cli::outfile::OutputFile::create(output, &inputs)?;
     let key = crate::cache::key(input, params)?;
     let opened = crate::import::open(input)?;
     let write_err = |source| BuildError::Write {
@@ -462,7 +462,7 @@ pub fn merge_files(
     let model = crate::import::model_files(input);
     let mut inputs: Vec<&Path> = model.iter().map(PathBuf::as_path).collect();
     inputs.extend(shard_files.iter().map(PathBuf::as_path));
-    let out = engine::outfile::OutputFile::create(output, &inputs)?;
+    let out = engine_cli::outfile::OutputFile::create(output, &inputs)?;
     let key = crate::cache::key(input, params)?;
     let shard_err = |p: &Path, what: String| BuildError::Shard(format!("{}: {what}", p.display()));
     // The headers: one count, every index once.
@@ -508,7 +508,7 @@ pub fn merge_files(
         Staged::Memory(m) => BuildError::Memory(m),
     })?;
     let (shard_roots, upper) = shard_plan(&prep, n);
-    let dir = engine::outfile::parent_dir(out.target()).to_path_buf();
+    let dir = engine_cli::outfile::parent_dir(out.target()).to_path_buf();
     let staging = tempfile::tempfile_in(&dir).map_err(|e| write_err(e.into()))?;
     let mut sources: Vec<FileSource> = Vec::new();
     let mut node_source = vec![usize::MAX; prep.tree.len()];

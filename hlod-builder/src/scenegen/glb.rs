@@ -90,7 +90,7 @@ struct Node {
 #[derive(Debug)]
 enum Bin {
     /// A `.gltf`'s `.bin`, written in place (a temporary file committed at the end).
-    Beside(engine::outfile::OutputFile, PathBuf),
+    Beside(engine_cli::outfile::OutputFile, PathBuf),
     /// A temporary file copied into the `.glb` after the JSON.
     Staged(File),
 }
@@ -118,14 +118,14 @@ impl SceneStream {
         let gltf = path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
-        let target = engine::outfile::check_output(path, inputs)?;
+        let target = engine_cli::outfile::check_output(path, inputs)?;
         let (bin, file) = if gltf {
             let bin_path = target.with_extension("bin");
-            let out = engine::outfile::OutputFile::create(&bin_path, inputs)?;
+            let out = engine_cli::outfile::OutputFile::create(&bin_path, inputs)?;
             let f = out.file().try_clone()?;
             (Bin::Beside(out, bin_path), f)
         } else {
-            let f = tempfile::tempfile_in(engine::outfile::parent_dir(&target))?;
+            let f = tempfile::tempfile_in(engine_cli::outfile::parent_dir(&target))?;
             (Bin::Staged(f.try_clone()?), f)
         };
         Ok(Self {
@@ -307,7 +307,7 @@ impl SceneStream {
                     .map(|n| n.to_string_lossy().into_owned())
                     .unwrap_or_default();
                 out.commit()?;
-                let json_len = engine::outfile::write_with(&self.target, &inputs, |w| {
+                let json_len = engine_cli::outfile::write_with(&self.target, &inputs, |w| {
                     let mut c = Counter(w, 0);
                     self.write_json(&mut c, Some(&uri))?;
                     Ok(c.1)
@@ -329,7 +329,7 @@ impl SceneStream {
                         engine::limits::human(total)
                     )));
                 }
-                engine::outfile::write_with(&self.target, &inputs, |w| {
+                engine_cli::outfile::write_with(&self.target, &inputs, |w| {
                     w.write_all(b"glTF")?;
                     w.write_all(&2u32.to_le_bytes())?;
                     w.write_all(&(total as u32).to_le_bytes())?;

@@ -190,7 +190,7 @@ pub fn generate(p: &LatticeParams) -> Result<(Vec<Mesh>, Vec<GlbObject>), String
 
 /// Generates the scene and writes it as GLB.
 pub fn write_lattice(p: &LatticeParams, path: &Path) -> anyhow::Result<PlantStats> {
-    engine::outfile::check_output(path, &[])?;
+    engine_cli::outfile::check_output(path, &[])?;
     let (meshes, objects) = generate(p).map_err(anyhow::Error::msg)?;
     let triangles = meshes.iter().map(|m| m.tri_count() as u64).sum();
     let bytes = write_glb(path, &[], &meshes, &objects)

@@ -251,7 +251,7 @@ fn generate_with(
 /// few dozen bytes per object, whatever the size.
 pub fn write_plant(p: &PlantParams, path: &Path) -> anyhow::Result<PlantStats> {
     let named = |e: std::io::Error| anyhow::anyhow!("{}: {e}", path.display());
-    engine::outfile::check_output(path, &[])?;
+    engine_cli::outfile::check_output(path, &[])?;
     let scale = budget_scale(p).map_err(anyhow::Error::msg)?;
     let glb = !path
         .extension()

@@ -92,7 +92,7 @@ pub fn write_tiled(
     }
     let inputs = import::model_files(input);
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
-    engine::outfile::check_output(out, &inputs)?;
+    engine_cli::outfile::check_output(out, &inputs)?;
     let imported = import::load(input)?;
     let named = |e: std::io::Error| anyhow::anyhow!("{}: {e}", out.display());
     let mut stream = SceneStream::create(out, &inputs).map_err(named)?;

@@ -3,9 +3,10 @@
 
 use std::path::Path;
 
-use engine::camera::{PathKind, View, generate_path};
+use engine::camera::View;
 use engine::front::FrontIndex;
 use engine::{SceneFile, Skeleton};
+use engine_cli::paths::{PathKind, generate_path};
 use glam::Vec3;
 use hlod_builder::build::{BuildParams, build_file};
 use hlod_builder::scenegen::plant::{PlantParams, write_plant};

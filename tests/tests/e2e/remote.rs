@@ -9,13 +9,15 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use e2e_tests::servers::{Fault, FaultProxy, Nginx};
-use engine::camera::{PathKind, Pose, generate_path};
+use engine::camera::Pose;
 use engine::metrics::FrameMetrics;
-use engine::remote::{RemoteOptions, RemoteSource};
 use engine::render::NoneRenderer;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough, run_path};
 use engine::skeleton::Skeleton;
-use engine::{ByteSource, FileSource, SceneFile, SceneHandle};
+use engine::{ByteSource, FileSource, SceneFile};
+use engine_cli::SceneHandle;
+use engine_cli::paths::{PathKind, generate_path};
+use engine_cli::remote::{RemoteOptions, RemoteSource};
 use glam::Vec3;
 use hlod_builder::build::{BuildParams, build_file};
 use hlod_builder::scenegen::plant::{PlantParams, write_plant};
@@ -312,7 +314,7 @@ fn cached_blocks(dir: &Path) -> (Vec<PathBuf>, u64) {
 
 #[test]
 fn a_second_walk_reads_from_the_disk_cache_and_nothing_from_the_network() {
-    use engine::scene_handle::DiskCacheSpec;
+    use engine_cli::scene_handle::DiskCacheSpec;
     let dir = tempfile::tempdir().unwrap();
     let served = dir.path().join("served");
     std::fs::create_dir(&served).unwrap();

@@ -6,14 +6,16 @@
 //! mismatch the actual image and a difference image are written next to the
 //! test binary's temporary directory and their paths are in the panic.
 
+use engine_cli::png::PngFile as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use engine::camera::{PathKind, Pose, generate_path};
+use engine::camera::Pose;
 use engine::image::RgbaImage;
 use engine::render::DrawStyle;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::{ByteSource, MemSource, SceneFile, Skeleton};
+use engine_cli::paths::{PathKind, generate_path};
 use engine_gpu::{Colouring, GpuRenderer, RendererConfig};
 use glam::Vec3;
 use hlod_builder::build::{BuildParams, build_file};

@@ -4,6 +4,7 @@
 //! wgpu frame of the same view, and naming the element under a click as
 //! our picking does.
 
+use engine_cli::png::PngFile as _;
 use std::path::{Path, PathBuf};
 
 use engine::image::RgbaImage;

@@ -6,11 +6,12 @@
 use std::io::Cursor;
 use std::sync::{Arc, OnceLock};
 
-use engine::camera::{PathKind, Pose, generate_path};
+use engine::camera::Pose;
 use engine::metrics::FrameMetrics;
 use engine::render::NoneRenderer;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough};
 use engine::{ByteSource, MemSource, RepKind, SceneFile, Skeleton};
+use engine_cli::paths::{PathKind, generate_path};
 use hlod_builder::build::{BuildParams, build_scene};
 
 use super::gpu_shot;

@@ -3,11 +3,12 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use engine::camera::{PathKind, Pose, generate_path};
+use engine::camera::Pose;
 use engine::render::NoneRenderer;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough, run_path};
 use engine::skeleton::Skeleton;
 use engine::{ByteSource, FileSource, SceneFile};
+use engine_cli::paths::{PathKind, generate_path};
 use glam::Vec3;
 use hlod_builder::build::{BuildParams, build_file};
 use hlod_builder::scenegen::plant::{PlantParams, write_plant};

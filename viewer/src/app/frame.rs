@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use engine::camera::{Pose, format_path};
-use engine::metrics::CsvStream;
+use engine_cli::report::CsvStream;
 
 use super::App;
 
@@ -93,7 +93,7 @@ impl App {
             .record
             .clone()
             .unwrap_or_else(|| PathBuf::from("hlod-view-path.txt"));
-        match engine::outfile::write_bytes(&to, format_path(poses).as_bytes()) {
+        match engine_cli::outfile::write_bytes(&to, format_path(poses).as_bytes()) {
             Ok(()) => tracing::info!("recorded {} poses to {}", poses.len(), to.display()),
             Err(e) => self.report(format!("cannot write {}: {e}", to.display())),
         }

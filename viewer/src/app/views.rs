@@ -292,7 +292,7 @@ impl App {
             default_visible,
             exceptions,
         };
-        engine::outfile::write_bytes(&to, v.to_xml(sess.origin).as_bytes())
+        engine_cli::outfile::write_bytes(&to, v.to_xml(sess.origin).as_bytes())
             .with_context(|| format!("cannot write {}", to.display()))?;
         println!("viewpoint saved to {}", to.display());
         Ok(())

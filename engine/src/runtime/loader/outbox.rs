@@ -174,7 +174,7 @@ mod tests {
     #[test]
     fn draws_are_grouped_while_p_r_is_busy_and_sent_at_once_when_it_is_not() {
         let (tx, rx) = bounded(4);
-        let clock = crate::clock::SystemClock;
+        let clock = crate::clock::ManualClock::new();
         let mut out = Outbox::new(tx);
         // P_R has nothing to draw: the first draw goes out alone.
         out.draw(d(1), &clock).unwrap();
@@ -198,7 +198,7 @@ mod tests {
     #[test]
     fn evictions_go_just_before_their_group_and_other_replies_after_it() {
         let (tx, rx) = bounded(16);
-        let clock = crate::clock::SystemClock;
+        let clock = crate::clock::ManualClock::new();
         let mut out = Outbox::new(tx);
         out.evicted(vec![7]);
         out.draw(d(1), &clock).unwrap();
@@ -220,7 +220,7 @@ mod tests {
         // each with its evictions, fill the channel and never overflow it.
         let reps = 10 * DRAW_BATCH + 3;
         let (tx, rx) = bounded(capacity(reps));
-        let clock = crate::clock::SystemClock;
+        let clock = crate::clock::ManualClock::new();
         let mut out = Outbox::new(tx);
         for r in 0..reps as RepId {
             out.evicted(vec![r + 100_000]);
@@ -236,7 +236,7 @@ mod tests {
         // P_R takes nothing (it is drawing): one message a rep would have
         // filled the 4 slots after 4 draws and waited there.
         let (tx, rx) = bounded(4);
-        let clock = crate::clock::SystemClock;
+        let clock = crate::clock::ManualClock::new();
         let mut out = Outbox::new(tx);
         for r in 0..1 + 3 * DRAW_BATCH as RepId {
             out.draw(d(r), &clock).unwrap();
@@ -256,7 +256,7 @@ mod tests {
     #[test]
     fn p_r_is_busy_while_a_group_it_has_not_taken_is_queued() {
         let (tx, rx) = bounded(capacity(4 * DRAW_BATCH));
-        let clock = crate::clock::SystemClock;
+        let clock = crate::clock::ManualClock::new();
         let mut out = Outbox::new(tx);
         assert!(!out.p_r_busy());
         for r in 0..2 * DRAW_BATCH as RepId {
@@ -278,7 +278,7 @@ mod tests {
     fn a_gone_renderer_is_an_error_not_a_hang() {
         let (tx, rx) = bounded(1);
         drop(rx);
-        let clock = crate::clock::SystemClock;
+        let clock = crate::clock::ManualClock::new();
         let mut out = Outbox::new(tx);
         assert!(out.draw(d(1), &clock).is_err());
     }

@@ -21,6 +21,7 @@ use lru::LruCache;
 use super::{Loader, Purpose};
 use crate::format::RepRecord;
 use crate::runtime::Mode;
+use crate::runtime::footprint::Held;
 
 /// Stored bytes of recently read pages, least recently used first out.
 #[derive(Debug)]
@@ -167,9 +168,8 @@ impl Loader {
     /// prefetching the room — the reads then fell back to one seek per rep
     /// just in the dense stretches.)
     pub(super) fn plan_pages(&mut self) {
-        let share = (self.params.budget_bytes as f64 * f64::from(self.params.page_share)) as u64;
-        let on = self.paging() && share >= 2 * self.params.page_bytes;
-        self.pages.set_cap(if on { share } else { 0 });
+        let cap = self.fp.pages_cap(self.params.page_bytes, self.paging());
+        self.pages.set_cap(cap);
     }
 
     /// Whether rep `rec` is read by pages: pages on this frame, and stored
@@ -276,8 +276,11 @@ impl Loader {
     /// Makes room for a page of `n` bytes: within the pages' share and
     /// beside what is resident, evicting pages (never reps).
     fn page_room(&mut self, n: u64) -> bool {
-        let (cap, budget) = (self.pages.cap(), self.params.budget_bytes);
-        while self.pages.bytes() + n > cap || self.res.bytes() + self.pages.bytes() + n > budget {
+        let held = |l: &Self| Held {
+            reps: l.res.bytes(),
+            pages: l.pages.bytes(),
+        };
+        while !self.fp.page_fits(held(self), self.pages.cap(), n) {
             if self.pages.evict_lru().is_none() {
                 return false;
             }
@@ -285,27 +288,25 @@ impl Loader {
         true
     }
 
-    /// The reps' room under `budget` for a read of `purpose`: the budget
-    /// less the pages' bytes, and a prefetch also leaves the pages' share.
-    pub(super) fn rep_budget(&self, budget: u64, purpose: Purpose) -> u64 {
-        let pages = self.pages.bytes();
-        let held = match purpose {
-            Purpose::Demand => pages,
-            Purpose::Prefetch => pages.max(self.pages.cap()),
-        };
-        budget.saturating_sub(held)
+    /// The reps' room for a read of `purpose` ([`Footprint::rep_room`]:
+    /// P_I's side less the pages, and a prefetch also leaves the pages'
+    /// share); `None` in core.
+    pub(super) fn rep_room(&self, purpose: Purpose) -> Option<u64> {
+        self.fp
+            .rep_room(self.pages.bytes(), self.pages.cap(), purpose)
     }
 
     /// Makes room for `need` more bytes for a rep under the budget less the
-    /// pages ([`rep_budget`](Self::rep_budget); the eviction rule is
+    /// pages ([`rep_room`](Self::rep_room); the eviction rule is
     /// [`crate::runtime::resident::ResidentSet::make_room`]). A demand read
     /// takes the pages' room before it gives up.
     pub(super) fn make_room(&mut self, need: u64, purpose: Purpose) -> bool {
-        let budget = self.params.budget_bytes;
-        let cap = (budget as f64 * f64::from(self.params.prefetch.speculative_share)) as u64;
+        let cap = self.fp.speculative_cap();
         let (evictions, wasted) = (self.res.evictions(), self.res.wasted_bytes());
         let ok = loop {
-            let room = self.rep_budget(budget, purpose);
+            let Some(room) = self.rep_room(purpose) else {
+                break true; // in core: nothing bounds P_I
+            };
             let skeleton = &self.skeleton;
             let ok = self.res.make_room(need, room, purpose, cap, |r| {
                 skeleton.reps[r as usize].resident_len()

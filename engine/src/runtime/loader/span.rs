@@ -13,10 +13,7 @@
 
 use std::time::Duration;
 
-use crossbeam_channel::Receiver;
-
 use super::{LoadError, Loader, Purpose};
-use crate::runtime::Cmd;
 use crate::skeleton::{RepId, Skeleton};
 
 /// Learnt read costs of the rep source.
@@ -352,7 +349,7 @@ impl Loader {
 
     /// Whether a new fetch command arrived (kept as pending).
     pub(super) fn preempted(&mut self) -> bool {
-        preempted(&mut self.pending, &self.cmds)
+        self.inbox.preempted()
     }
 
     /// Whether the first block of a prefetch read of rep `r` ends before
@@ -456,18 +453,6 @@ impl Loader {
             x = n;
         }
     }
-}
-
-/// Whether a new command arrived on `cmds` (kept in `pending`, which must
-/// be empty).
-pub(super) fn preempted(pending: &mut Option<Cmd>, cmds: &Receiver<Cmd>) -> bool {
-    if pending.is_none()
-        && let Ok(c) = cmds.try_recv()
-    {
-        *pending = Some(c);
-        return true;
-    }
-    false
 }
 
 #[cfg(test)]

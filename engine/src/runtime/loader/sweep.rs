@@ -94,7 +94,7 @@ impl Loader {
             .costs
             .last_end()
             .is_some_and(|end| self.bridge(end, rec.offset, Purpose::Prefetch));
-        if self.pending.is_some() {
+        if self.inbox.waiting() {
             return true;
         }
         if !bridged && !self.first_block_in_time(r) {

@@ -2,8 +2,8 @@ use glam::Vec3;
 
 use crate::camera::Pose;
 use crate::render::NoneRenderer;
-use crate::runtime::tests::{check_frames, params, wide};
-use crate::runtime::{Mode, RuntimeParams, Walkthrough, run_path};
+use crate::runtime::tests::{check_frames, params, start, wide};
+use crate::runtime::{Mode, RuntimeParams, run_path};
 
 /// A still camera over a front that does not fit: the governor raises ε
 /// until it does and stays there, with no substitute; without it, the
@@ -19,7 +19,7 @@ fn the_governor_fits_the_front_and_settles_on_a_still_camera() {
             governor: governor.then(crate::governor::GovernorParams::default),
             ..params(Mode::NoPre, budget)
         };
-        let mut walk = Walkthrough::start(skel.clone(), src.clone(), p).unwrap();
+        let mut walk = start(skel.clone(), src.clone(), p).unwrap();
         let mut r = NoneRenderer::new(0.0);
         let frames = run_path(&mut walk, &[pose; 40], &mut r, 0.0).unwrap();
         check_frames(&frames, budget);

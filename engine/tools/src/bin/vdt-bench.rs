@@ -19,13 +19,15 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
-use engine::camera::{PathKind, View, format_path, generate_path, read_path};
-use engine::disk::{DiskModel, open_scene_source};
+use engine::camera::{View, format_path, read_path};
+use engine::disk::DiskModel;
 use engine::vdt::ext::{ExtStore, Prefetch};
 use engine::vdt::file::VdtFile;
 use engine::vdt::raster::rasterise;
 use engine::vdt::refine::{Criterion, NodeStore, Refiner};
 use engine::vdt::virt::VirtStore;
+use engine_cli::disk::open_scene_source;
+use engine_cli::paths::{PathKind, generate_path};
 use glam::Vec3;
 
 #[derive(Parser, Debug)]
@@ -106,7 +108,7 @@ fn run(a: Args) -> Result<()> {
         None => generate_path(PathKind::ApproachOrbit, lo, hi, a.frames),
     };
     std::fs::create_dir_all(&a.out)?;
-    engine::outfile::write_bytes(&a.out.join("path.txt"), format_path(&poses).as_bytes())?;
+    engine_cli::outfile::write_bytes(&a.out.join("path.txt"), format_path(&poses).as_bytes())?;
     let diag = (hi - lo).length().max(1e-6);
     let views: Vec<View> = poses
         .iter()
@@ -223,14 +225,14 @@ fn run(a: Args) -> Result<()> {
         mean(&reference, |f| f.ms)
     );
     print!("{head}{table}");
-    engine::outfile::write_bytes(
+    engine_cli::outfile::write_bytes(
         &a.out.join("table2.md"),
         format!("{head}{table}").as_bytes(),
     )?;
-    engine::outfile::write_bytes(&a.out.join("frames.csv"), csv.as_bytes())?;
+    engine_cli::outfile::write_bytes(&a.out.join("frames.csv"), csv.as_bytes())?;
     if a.psnr_every > 0 {
         print!("PSNR (dB) of Ext. frames vs the full-resolution mesh:\n{psnr}");
-        engine::outfile::write_bytes(&a.out.join("psnr.csv"), psnr.as_bytes())?;
+        engine_cli::outfile::write_bytes(&a.out.join("psnr.csv"), psnr.as_bytes())?;
     }
     Ok(())
 }

@@ -11,6 +11,7 @@
 //! [`COLOUR_TOLERANCE`]). In core, so that only the level of detail differs
 //! (no substitutes, no budget).
 
+use engine_cli::png::PngFile as _;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -19,9 +20,9 @@ use engine::camera::Pose;
 use engine::image::RgbaImage;
 use engine::io::ByteSource;
 use engine::metrics::quantile;
-use engine::outfile::write_bytes;
 use engine::runtime::{Mode, RuntimeParams, Walkthrough, run_path_each};
 use engine::skeleton::Skeleton;
+use engine_cli::outfile::write_bytes;
 use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 
 /// Largest channel difference (of 255) still counted as the same colour:

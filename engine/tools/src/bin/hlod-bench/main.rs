@@ -14,6 +14,7 @@ mod raster;
 mod short;
 mod walking;
 
+use engine_cli::png::PngFile as _;
 use std::path::Path;
 use std::process::ExitCode;
 use std::sync::Arc;
@@ -21,14 +22,17 @@ use std::sync::Arc;
 use anyhow::{Context, Result, bail};
 use args::Args;
 use clap::Parser;
-use engine::camera::{PathKind, Pose, format_path, generate_path, read_path};
+use engine::SceneFile;
+use engine::camera::{Pose, format_path, read_path};
 use engine::disk::DiskModel;
 use engine::image::RgbaImage;
-use engine::metrics::{CsvStream, Recorder, Summary, TracePoint, summary_table, vdt_table};
-use engine::outfile::write_bytes;
+use engine::metrics::{Recorder, Summary, TracePoint};
 use engine::render::{NoneRenderer, Renderer};
 use engine::runtime::{Mode, PrefetchParams, RuntimeParams, Walkthrough, run_path_each};
-use engine::{SceneFile, SceneHandle};
+use engine_cli::SceneHandle;
+use engine_cli::outfile::write_bytes;
+use engine_cli::paths::{PathKind, generate_path};
+use engine_cli::report::{CsvStream, summary_table, vdt_table};
 use engine_cli::{in_range, parse_size, size_or_off};
 use engine_gpu::{Colouring, GpuContext, GpuRenderer, RendererConfig};
 use glam::Vec3;
@@ -82,7 +86,7 @@ fn run(a: Args) -> Result<()> {
     // reads the same file even if its path is replaced meanwhile.
     let scene_name = a.scene.display().to_string();
     let cache = match &a.disk_cache {
-        Some(dir) => Some(engine::scene_handle::DiskCacheSpec {
+        Some(dir) => Some(engine_cli::scene_handle::DiskCacheSpec {
             dir: dir.clone(),
             max_bytes: engine_cli::parse_disk_size("--disk-cache-size", &a.disk_cache_size)?,
         }),

@@ -21,7 +21,7 @@ pub fn mt_table(rows: &[Summary]) -> String {
             s,
             "| {} | {} | {} | {:.0} | {:.1} | {:.2} | {:.3} | {} | {} | {:.2} | {} | {:.2} |",
             r.mode,
-            engine::metrics::budget_cell(r),
+            engine_cli::report::budget_cell(r),
             r.vdt_frames,
             t.mt_tris as f64 / k,
             t.mt_adapt as f64 / k,

@@ -2,6 +2,7 @@
 //! written with the engine's PNG writer. Text uses the Ubuntu Light face
 //! bundled by `epaint_default_fonts` (no system fonts needed).
 
+use engine_cli::png::PngFile as _;
 use std::path::Path;
 use std::sync::Once;
 

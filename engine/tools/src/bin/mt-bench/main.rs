@@ -16,11 +16,12 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use engine::camera::{Pose, View, format_path, read_path};
-use engine::disk::{DiskModel, open_scene_source};
+use engine::disk::DiskModel;
 use engine::mt::cache::CacheMode;
 use engine::mt::cut::{MtCriterion, MtCut};
 use engine::mt::file::MtFile;
 use engine::mt::store::{MtStore, node_bytes};
+use engine_cli::disk::open_scene_source;
 use engine_cli::in_range;
 use glam::Vec3;
 
@@ -140,7 +141,7 @@ fn run(a: Args) -> Result<()> {
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| p.into());
-            engine::outfile::write_bytes(
+            engine_cli::outfile::write_bytes(
                 &a.out.join(format!("path-{pname}.txt")),
                 format_path(&poses).as_bytes(),
             )?;
@@ -229,8 +230,8 @@ fn run(a: Args) -> Result<()> {
         }
     }
     print!("{summary}");
-    engine::outfile::write_bytes(&a.out.join("summary.md"), summary.as_bytes())?;
-    engine::outfile::write_bytes(&a.out.join("frames.csv"), csv.as_bytes())?;
+    engine_cli::outfile::write_bytes(&a.out.join("summary.md"), summary.as_bytes())?;
+    engine_cli::outfile::write_bytes(&a.out.join("frames.csv"), csv.as_bytes())?;
     Ok(())
 }
 
@@ -259,7 +260,7 @@ fn poses(p: &str, lo: Vec3, hi: Vec3, frames: usize) -> Result<Vec<Pose>> {
             })
             .collect(),
         "approach-orbit" => {
-            engine::camera::generate_path(engine::camera::PathKind::ApproachOrbit, lo, hi, n)
+            engine_cli::paths::generate_path(engine_cli::paths::PathKind::ApproachOrbit, lo, hi, n)
         }
         file => read_path(Path::new(file)).with_context(|| format!("--paths {file:?}"))?,
     })

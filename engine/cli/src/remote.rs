@@ -34,7 +34,7 @@ use object_store::{
     ObjectStoreExt, RetryConfig,
 };
 
-use crate::io::ByteSource;
+use engine::io::ByteSource;
 
 /// Whether `s` names a remote scene (a URL this module reads).
 pub fn is_remote(s: &str) -> bool {
@@ -308,7 +308,7 @@ impl ByteSource for RemoteSource {
     }
 
     fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
-        crate::io::check_range(offset, buf.len(), self.len())?;
+        engine::io::check_range(offset, buf.len(), self.len())?;
         if buf.is_empty() {
             return Ok(());
         }

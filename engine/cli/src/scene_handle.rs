@@ -8,8 +8,9 @@ use std::io;
 use std::path::Path;
 use std::sync::Arc;
 
-use crate::disk::{DiskModel, scene_source};
-use crate::io::{ByteSource, FileSource};
+use crate::disk::scene_source;
+use engine::disk::DiskModel;
+use engine::io::{ByteSource, FileSource};
 
 /// A scene opened once, from which each walk takes its own source.
 #[derive(Debug)]
@@ -85,7 +86,7 @@ impl SceneHandle {
             return Ok(Self::Remote(remote, cached));
         }
         let _ = cache;
-        crate::infile::open(path).map(Self::File)
+        engine::infile::open(path).map(Self::File)
     }
 
     /// Requests made to the server and the bytes they returned so far, and

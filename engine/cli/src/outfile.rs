@@ -8,7 +8,7 @@
 //!   at any file the user can write).
 //! - An output is never one of the command's inputs (same device and inode,
 //!   hard links included): neither those the caller names nor any file the
-//!   process read through [`crate::infile`] (a glTF's buffers, a path file,
+//!   process read through [`engine::infile`] (a glTF's buffers, a path file,
 //!   shards). The check is made when the output is created and again just
 //!   before it is renamed into place.
 //! - It is written to a temporary file beside the target and renamed over it
@@ -45,8 +45,8 @@ pub enum OutputError {
     #[error(
         "{}: needs {} free, the file system has {}",
         path.display(),
-        crate::limits::human(*need),
-        crate::limits::human(*free)
+        engine::limits::human(*need),
+        engine::limits::human(*free)
     )]
     NoSpace { path: PathBuf, need: u64, free: u64 },
     #[error("{}: {source}", path.display())]
@@ -235,7 +235,7 @@ fn resolve_target(path: &Path, inputs: &[&Path]) -> Result<PathBuf, OutputError>
     if !meta.is_file() {
         return Err(OutputError::NotRegular {
             path: path.to_path_buf(),
-            what: crate::infile::kind_of(&meta),
+            what: engine::infile::kind_of(&meta),
         });
     }
     for input in inputs {
@@ -248,7 +248,7 @@ fn resolve_target(path: &Path, inputs: &[&Path]) -> Result<PathBuf, OutputError>
             });
         }
     }
-    if let Some(input) = crate::infile::is_input(&meta) {
+    if let Some(input) = engine::infile::is_input(&meta) {
         return Err(OutputError::IsInput {
             path: path.to_path_buf(),
             input,
@@ -453,18 +453,18 @@ mod tests {
 
     #[test]
     fn a_file_the_process_read_is_never_an_output() {
-        crate::infile::track_inputs();
+        engine::infile::track_inputs();
         let dir = tempfile::tempdir().unwrap();
         let read = dir.path().join("buffer.bin");
         std::fs::write(&read, b"data").unwrap();
-        drop(crate::infile::open(&read).unwrap());
+        drop(engine::infile::open(&read).unwrap());
         let e = OutputFile::create(&read, &[]).unwrap_err();
         assert!(matches!(e, OutputError::IsInput { .. }), "{e}");
         // Read after the output was created: refused at commit.
         let late = dir.path().join("late.csv");
         std::fs::write(&late, b"keep").unwrap();
         let out = OutputFile::create(&late, &[]).unwrap();
-        drop(crate::infile::open(&late).unwrap());
+        drop(engine::infile::open(&late).unwrap());
         assert!(matches!(out.commit(), Err(OutputError::IsInput { .. })));
         assert_eq!(std::fs::read(&late).unwrap(), b"keep");
         assert_eq!(std::fs::read(&read).unwrap(), b"data");

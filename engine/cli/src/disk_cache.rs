@@ -27,8 +27,8 @@ use std::sync::{Arc, Mutex};
 
 use lru::LruCache;
 
-use crate::io::ByteSource;
 use crate::remote::RemoteSource;
+use engine::io::ByteSource;
 
 /// Bytes per cached block: a miss fetches the aligned blocks around a read
 /// (at most two blocks more than asked).
@@ -241,7 +241,7 @@ impl ByteSource for CachedSource {
     }
 
     fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
-        crate::io::check_range(offset, buf.len(), self.len())?;
+        engine::io::check_range(offset, buf.len(), self.len())?;
         if buf.is_empty() {
             return Ok(());
         }
