@@ -41,13 +41,14 @@ pub fn run(args: Args) -> Result<()> {
     }
     args.check_outputs()?;
     let settings = initial_settings(&args)?;
+    let budget = engine_cli::BudgetArg::parse(&args.budget)?;
     let path = match &args.path {
         Some(p) => Some(read_path(p)?),
         None => None,
     };
     let event_loop = EventLoop::new().context("no display (set DISPLAY or run under Xvfb)")?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let mut app = App::new(args, settings, path);
+    let mut app = App::new(args, (settings, budget), path);
     event_loop.run_app(&mut app)?;
     app.finish()
 }
@@ -70,13 +71,10 @@ fn initial_settings(a: &Args) -> Result<Settings> {
         ..RuntimeParams::default()
     };
     params.check()?;
-    // The fraction is fixed once the scene's size is known.
-    if a.budget.trim() != "auto" {
-        engine_cli::parse_budget(&a.budget, 1 << 30)?;
-    }
     Ok(Settings {
         mode,
-        budget_fraction: 0.08,
+        // Set from `--budget` when a scene opens.
+        budget_bytes: 1,
         params,
         colouring,
         disk,
@@ -87,6 +85,8 @@ fn initial_settings(a: &Args) -> Result<Settings> {
 struct App {
     args: Args,
     settings: Settings,
+    /// `--budget`, resolved for each scene opened.
+    budget: engine_cli::BudgetArg,
     gfx: Option<Gfx>,
     session: Option<Session>,
     error: Option<String>,
@@ -133,7 +133,11 @@ struct App {
 }
 
 impl App {
-    fn new(args: Args, settings: Settings, path: Option<Vec<Pose>>) -> Self {
+    fn new(
+        args: Args,
+        (settings, budget): (Settings, engine_cli::BudgetArg),
+        path: Option<Vec<Pose>>,
+    ) -> Self {
         let recording = args.record.as_ref().map(|_| Vec::new());
         Self {
             ui: UiState {
@@ -155,6 +159,7 @@ impl App {
             },
             args,
             settings,
+            budget,
             gfx: None,
             session: None,
             error: None,
@@ -240,7 +245,7 @@ impl App {
         self.session = None;
         self.selection = None;
         let size = (gfx.config.width, gfx.config.height);
-        let budget = Some(self.args.budget.as_str());
+        let budget = Some(self.budget);
         let cache = self.args.disk_cache();
         let place = (size, gfx.config.format, cache.as_ref());
         match Session::open(path, &gfx.ctx, self.settings, budget, place) {
@@ -442,6 +447,7 @@ impl App {
                 error: self.error.as_deref(),
                 settings: self.session.as_ref().map(|s| s.settings),
                 budget_bytes: self.session.as_ref().map_or(0, |s| s.budget_bytes()),
+                data_bytes: self.session.as_ref().map_or(0, |s| s.data_bytes),
                 recording: self.recording.as_ref().map(Vec::len),
                 playing: self.play.as_ref().map(|(p, i)| (*i, p.len())),
                 fly_speed: self.controls.speed,

@@ -20,8 +20,9 @@ use glam::Vec3;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
     pub mode: Mode,
-    /// Budget as a fraction of the scene's rep data.
-    pub budget_fraction: f64,
+    /// The footprint in bytes: `--budget` resolved when the scene opened,
+    /// or what the panel's slider set.
+    pub budget_bytes: u64,
     pub params: RuntimeParams,
     pub colouring: Colouring,
     pub disk: Option<DiskModel>,
@@ -72,7 +73,7 @@ impl Session {
         path: &Path,
         ctx: &GpuContext,
         mut settings: Settings,
-        budget: Option<&str>,
+        budget: Option<engine_cli::BudgetArg>,
         (size, color_format, cache): (
             (u32, u32),
             wgpu::TextureFormat,
@@ -87,12 +88,7 @@ impl Session {
         let origin = scene.meta().origin;
         let data_bytes = skeleton.in_core_bytes();
         if let Some(b) = budget {
-            let bytes = if b.trim() == "auto" {
-                engine_cli::auto_budget(&skeleton)
-            } else {
-                engine_cli::parse_budget(b, data_bytes.max(1))?
-            };
-            settings.budget_fraction = (bytes as f64 / data_bytes.max(1) as f64).clamp(1e-6, 1.0);
+            settings.budget_bytes = b.bytes(&skeleton)?;
         }
         let root = &skeleton.nodes[0];
         let diag = (Vec3::from(root.bbox_max) - Vec3::from(root.bbox_min)).length();
@@ -271,7 +267,7 @@ impl Session {
 
     /// The budget in bytes under the current settings.
     pub fn budget_bytes(&self) -> u64 {
-        budget(self.data_bytes, self.settings.budget_fraction)
+        self.settings.budget_bytes
     }
 
     /// Applies new settings: a restart when the runtime's parameters change,
@@ -329,10 +325,6 @@ fn occluder_share(budget: u64, full_detail: u64) -> u64 {
     }
 }
 
-fn budget(data: u64, fraction: f64) -> u64 {
-    ((data as f64 * fraction) as u64).max(1)
-}
-
 /// The scene a walk reads: its file (held open), skeleton and data size.
 struct Target<'a> {
     path: &'a Path,
@@ -349,7 +341,7 @@ fn start_walk(t: &Target<'_>, s: &Settings) -> Result<Walkthrough> {
         .handle
         .source(model)
         .with_context(|| t.path.display().to_string())?;
-    let budget_bytes = budget(t.data_bytes, s.budget_fraction);
+    let budget_bytes = s.budget_bytes;
     let params = RuntimeParams {
         mode: s.mode,
         budget_bytes,
@@ -380,7 +372,7 @@ fn start(
     let capacity = if s.mode == Mode::Incore {
         t.data_bytes
     } else {
-        budget(t.data_bytes, s.budget_fraction)
+        s.budget_bytes
     };
     let renderer = GpuRenderer::new(
         ctx.clone(),

@@ -76,6 +76,8 @@ pub struct View<'a> {
     pub error: Option<&'a str>,
     pub settings: Option<Settings>,
     pub budget_bytes: u64,
+    /// The scene's rep data: what the budget slider's percentages are of.
+    pub data_bytes: u64,
     pub recording: Option<usize>,
     pub playing: Option<(usize, usize)>,
     pub fly_speed: f32,
@@ -215,9 +217,12 @@ pub fn draw(
                         ui.selectable_value(&mut s.mode, m, m.name());
                     }
                 });
-            let mut pct = s.budget_fraction * 100.0;
-            ui.add(egui::Slider::new(&mut pct, 0.5..=100.0).logarithmic(true).text("budget %"));
-            s.budget_fraction = pct / 100.0;
+            let data = v.data_bytes.max(1) as f64;
+            let mut pct = s.budget_bytes as f64 / data * 100.0;
+            let slid = ui.add(egui::Slider::new(&mut pct, 0.5..=100.0).logarithmic(true).text("budget %"));
+            if slid.changed() {
+                s.budget_bytes = ((data * pct / 100.0) as u64).max(1);
+            }
             ui.add(egui::Slider::new(&mut s.params.tolerance_px, 0.25..=32.0).logarithmic(true).text("ε px"));
             ui.checkbox(&mut s.occlusion, "occlusion culling");
             let mut governed = s.params.governor.is_some();

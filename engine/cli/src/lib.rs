@@ -235,6 +235,47 @@ pub fn size_or_off(option: &str, s: &str, data_bytes: u64) -> anyhow::Result<u64
     }
 }
 
+/// A `--budget` as given, parsed once: `auto`, a size, or a share of the
+/// scene's rep data; [`BudgetArg::bytes`] resolves it once the scene is open.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BudgetArg {
+    Auto,
+    Bytes(u64),
+    /// A percentage in (0, 100].
+    Percent(f64),
+}
+
+impl BudgetArg {
+    /// Parses `auto`, a size (`64MiB`) or a percentage (`2.5%`).
+    pub fn parse(s: &str) -> anyhow::Result<Self> {
+        let t = s.trim();
+        if t == "auto" {
+            return Ok(Self::Auto);
+        }
+        if let Some(p) = t.strip_suffix('%') {
+            return match p.trim().parse::<f64>() {
+                Ok(v) if v > 0.0 && v <= 100.0 => Ok(Self::Percent(v)),
+                Ok(_) => anyhow::bail!("--budget {s:?}: a percentage must be in (0, 100]"),
+                Err(_) => anyhow::bail!("--budget {s:?}: expected e.g. 25MiB or 2.5%"),
+            };
+        }
+        // A size: checked against the machine's memory now.
+        parse_budget(t, 0).map(Self::Bytes)
+    }
+
+    /// The budget in bytes for the scene of `skeleton`.
+    pub fn bytes(&self, skeleton: &engine::Skeleton) -> anyhow::Result<u64> {
+        Ok(match *self {
+            Self::Auto => auto_budget(skeleton),
+            Self::Bytes(b) => b,
+            Self::Percent(p) => {
+                let data = skeleton.in_core_bytes().max(1);
+                parse_size("--budget", &format!("{p}%"), data, 100.0)?.max(1)
+            }
+        })
+    }
+}
+
 /// The most `--budget auto` gives: 1 GiB (further capped at a quarter of
 /// the machine's memory).
 pub const AUTO_BUDGET_CAP: u64 = 1 << 30;
@@ -314,6 +355,19 @@ pub fn parse_section(planes: &[String], section_box: Option<&str>) -> anyhow::Re
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_budget_is_parsed_once_and_resolved_for_each_scene() {
+        assert_eq!(BudgetArg::parse(" auto ").unwrap(), BudgetArg::Auto);
+        assert_eq!(
+            BudgetArg::parse("64MiB").unwrap(),
+            BudgetArg::Bytes(64 << 20)
+        );
+        assert_eq!(BudgetArg::parse("2.5%").unwrap(), BudgetArg::Percent(2.5));
+        for bad in ["", "x", "0%", "101%", "-1MiB", "1e30GiB", "NaN%"] {
+            assert!(BudgetArg::parse(bad).is_err(), "{bad:?}");
+        }
+    }
 
     #[test]
     fn sections_parse_and_name_their_option() {
