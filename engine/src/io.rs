@@ -22,6 +22,34 @@ pub trait ByteSource: Send + Sync {
     ///
     /// Reading past the end is an [`io::ErrorKind::UnexpectedEof`] error.
     fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()>;
+
+    /// The most bytes this source would hold for reads started ahead of
+    /// time ([`hint`](Self::hint)); 0, the default, when it starts none (a
+    /// file or a buffer: a request costs nothing that starting early saves).
+    fn read_ahead_max(&self) -> u64 {
+        0
+    }
+
+    /// Sets the bytes that reads started ahead may hold, in flight or done
+    /// and not yet read: the runtime takes them out of the footprint
+    /// ([`crate::runtime::Footprint`]). 0 turns reading ahead off.
+    fn set_read_ahead(&self, _bytes: u64) {}
+
+    /// The reads that come next, most urgent first, as byte ranges
+    /// `start..end`: a source whose requests have a high fixed cost (a
+    /// network's round trip) starts several of them at once, within what
+    /// [`set_read_ahead`](Self::set_read_ahead) allows, and serves a later
+    /// [`read_at`](Self::read_at) inside one from it. A hint replaces the
+    /// one before: ranges no longer hinted are dropped, and their requests
+    /// cancelled.
+    fn hint(&self, _ranges: &[(u64, u64)]) {}
+
+    /// Whether a read of `offset..offset + len` would be served at once,
+    /// from an answer to a request started ahead that is already here
+    /// (P_I may then start it whatever a request costs).
+    fn is_ready(&self, _offset: u64, _len: u64) -> bool {
+        false
+    }
 }
 
 /// A shared source is a source (a walk and a reader of the skeleton may
@@ -33,6 +61,22 @@ impl<T: ByteSource + ?Sized> ByteSource for Arc<T> {
 
     fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
         (**self).read_at(offset, buf)
+    }
+
+    fn read_ahead_max(&self) -> u64 {
+        (**self).read_ahead_max()
+    }
+
+    fn set_read_ahead(&self, bytes: u64) {
+        (**self).set_read_ahead(bytes);
+    }
+
+    fn hint(&self, ranges: &[(u64, u64)]) {
+        (**self).hint(ranges);
+    }
+
+    fn is_ready(&self, offset: u64, len: u64) -> bool {
+        (**self).is_ready(offset, len)
     }
 }
 

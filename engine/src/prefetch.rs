@@ -108,6 +108,14 @@ impl Bins {
             .find_map(|q| q.front().copied())
     }
 
+    /// The items in the order [`pop`](Self::pop) would return them.
+    pub fn iter(&self) -> impl Iterator<Item = (RepId, u8)> + '_ {
+        self.order
+            .iter()
+            .flat_map(move |&b| self.queues[b].iter().copied())
+            .chain(self.hidden.iter().copied())
+    }
+
     /// The first item of the highest-priority non-empty bin.
     pub fn pop(&mut self) -> Option<(RepId, u8)> {
         let x = self

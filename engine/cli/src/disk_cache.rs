@@ -287,4 +287,38 @@ impl ByteSource for CachedSource {
         self.hit.fetch_add(hit, Ordering::Relaxed);
         Ok(())
     }
+
+    fn read_ahead_max(&self) -> u64 {
+        self.remote.read_ahead_max()
+    }
+
+    fn set_read_ahead(&self, bytes: u64) {
+        self.remote.set_read_ahead(bytes);
+    }
+
+    /// The hinted ranges' runs of blocks not in the cache, as the reads
+    /// will ask the server for them (aligned to blocks): what is cached is
+    /// not requested again.
+    fn hint(&self, ranges: &[(u64, u64)]) {
+        let len = self.len();
+        let mut runs: Vec<(u64, u64)> = Vec::new();
+        for &(a, b) in ranges {
+            let b = b.min(len);
+            if a >= b {
+                continue;
+            }
+            let mut run: Option<(u64, u64)> = None;
+            for i in a / BLOCK..=(b - 1) / BLOCK {
+                if self.block_path(i).exists() {
+                    runs.extend(run.take());
+                } else {
+                    let end = ((i + 1) * BLOCK).min(len);
+                    run = Some(run.map_or((i * BLOCK, end), |(s, _)| (s, end)));
+                }
+            }
+            runs.extend(run);
+        }
+        runs.dedup();
+        self.remote.hint(&runs);
+    }
 }

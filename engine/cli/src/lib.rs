@@ -20,6 +20,8 @@ pub mod outfile;
 pub mod paths;
 pub mod png;
 #[cfg(feature = "remote")]
+pub mod read_ahead;
+#[cfg(feature = "remote")]
 pub mod remote;
 pub mod report;
 pub mod scene_handle;

@@ -35,6 +35,9 @@ use object_store::{
 };
 
 use engine::io::ByteSource;
+use tokio::task::JoinHandle;
+
+use crate::read_ahead::{Lookup, ReadAhead};
 
 /// Whether `s` names a remote scene (a URL this module reads).
 pub fn is_remote(s: &str) -> bool {
@@ -61,6 +64,12 @@ pub struct RemoteOptions {
     pub max_backoff: Duration,
     /// No retry starts later than this after the first try.
     pub retry_timeout: Duration,
+    /// Requests P_I may have in flight at once for the ranges it reads
+    /// next ([`engine::ByteSource::hint`]); 1 reads one range at a time.
+    pub max_requests: usize,
+    /// The most bytes those requests may hold (the runtime takes them out
+    /// of the footprint, and may give them less).
+    pub read_ahead_bytes: u64,
 }
 
 impl Default for RemoteOptions {
@@ -73,6 +82,8 @@ impl Default for RemoteOptions {
             init_backoff: Duration::from_millis(100),
             max_backoff: Duration::from_secs(2),
             retry_timeout: Duration::from_secs(20),
+            max_requests: crate::scene_handle::DEFAULT_REQUESTS,
+            read_ahead_bytes: 4 << 20,
         }
     }
 }
@@ -125,6 +136,10 @@ pub struct RemoteStats {
     pub bytes: u64,
     /// Reads that failed (after object_store's retries).
     pub failures: u64,
+    /// Reading ahead: reads served from requests started ahead, requests
+    /// started, dropped (no longer hinted) and the bytes dropped unread,
+    /// the most in flight at once.
+    pub ahead: crate::read_ahead::AheadStats,
 }
 
 /// A scene object on a server, pinned to the version it had when opened.
@@ -135,11 +150,19 @@ pub struct RemoteSource {
 }
 
 struct Inner {
+    conn: Arc<Conn>,
+    rt: tokio::runtime::Runtime,
+    ahead: std::sync::Mutex<ReadAhead<JoinHandle<io::Result<Vec<u8>>>>>,
+    read_ahead_max: u64,
+}
+
+/// What a request needs (shared with the requests in flight, which must
+/// not own the runtime they run on).
+struct Conn {
     url: String,
     store: Arc<dyn ObjectStore>,
     path: StorePath,
     meta: ObjectMeta,
-    rt: tokio::runtime::Runtime,
     changed: AtomicBool,
     requests: AtomicU64,
     bytes: AtomicU64,
@@ -149,9 +172,9 @@ struct Inner {
 impl std::fmt::Debug for RemoteSource {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("RemoteSource")
-            .field("url", &self.inner.url)
-            .field("len", &self.inner.meta.size)
-            .field("e_tag", &self.inner.meta.e_tag)
+            .field("url", &self.inner.conn.url)
+            .field("len", &self.inner.conn.meta.size)
+            .field("e_tag", &self.inner.conn.meta.e_tag)
             .finish()
     }
 }
@@ -183,53 +206,106 @@ impl RemoteSource {
         })?;
         Ok(Self {
             inner: Arc::new(Inner {
-                url: url.to_string(),
-                store,
-                path,
-                meta,
+                conn: Arc::new(Conn {
+                    url: url.to_string(),
+                    store,
+                    path,
+                    meta,
+                    changed: AtomicBool::new(false),
+                    requests: AtomicU64::new(0),
+                    bytes: AtomicU64::new(0),
+                    failures: AtomicU64::new(0),
+                }),
                 rt,
-                changed: AtomicBool::new(false),
-                requests: AtomicU64::new(0),
-                bytes: AtomicU64::new(0),
-                failures: AtomicU64::new(0),
+                ahead: std::sync::Mutex::new(ReadAhead::new(opts.max_requests)),
+                read_ahead_max: if opts.max_requests > 1 {
+                    opts.read_ahead_bytes
+                } else {
+                    0
+                },
             }),
         })
     }
 
     /// The URL it was opened with.
     pub fn url(&self) -> &str {
-        &self.inner.url
+        &self.inner.conn.url
     }
 
     /// The version pinned at open: the ETag, else the Last-Modified time.
     pub fn version(&self) -> String {
-        match &self.inner.meta.e_tag {
-            Some(t) => format!("ETag {t}"),
-            None => format!("Last-Modified {}", self.inner.meta.last_modified),
-        }
+        self.inner.conn.version()
     }
 
     /// Whether the object changed on the server since it was opened (then
     /// every read fails).
     pub fn changed(&self) -> bool {
-        self.inner.changed.load(Ordering::Relaxed)
+        self.inner.conn.changed.load(Ordering::Relaxed)
     }
 
     /// What it has served so far (all clones together).
     pub fn stats(&self) -> RemoteStats {
+        let c = &self.inner.conn;
         RemoteStats {
-            requests: self.inner.requests.load(Ordering::Relaxed),
-            bytes: self.inner.bytes.load(Ordering::Relaxed),
-            failures: self.inner.failures.load(Ordering::Relaxed),
+            requests: c.requests.load(Ordering::Relaxed),
+            bytes: c.bytes.load(Ordering::Relaxed),
+            failures: c.failures.load(Ordering::Relaxed),
+            ahead: self.ahead().stats(),
+        }
+    }
+
+    fn ahead(&self) -> std::sync::MutexGuard<'_, ReadAhead<JoinHandle<io::Result<Vec<u8>>>>> {
+        self.inner.ahead.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Starts a request for `start..end` on the runtime.
+    fn starter(&self) -> impl FnMut(u64, u64) -> JoinHandle<io::Result<Vec<u8>>> + '_ {
+        move |a, b| {
+            let conn = self.inner.conn.clone();
+            self.inner.rt.spawn(async move {
+                let mut buf = vec![0u8; (b - a) as usize];
+                conn.get(a, &mut buf).await.map(|()| buf)
+            })
+        }
+    }
+
+    /// A read inside a range requested ahead: `true` when served from it.
+    fn read_from_ahead(&self, offset: u64, buf: &mut [u8]) -> bool {
+        let looked = self.ahead().lookup(offset, buf);
+        match looked {
+            Lookup::Done => {
+                let cancel = self.ahead().refill(self.starter());
+                cancel.iter().for_each(JoinHandle::abort);
+                true
+            }
+            Lookup::Miss => false,
+            Lookup::Wait { handle, start } => {
+                let answer = self.inner.rt.block_on(handle).ok().and_then(Result::ok);
+                let (ok, cancel) = self
+                    .ahead()
+                    .finish(start, answer, offset, buf, self.starter());
+                cancel.iter().for_each(JoinHandle::abort);
+                ok
+            }
+        }
+    }
+}
+
+impl Conn {
+    /// The version pinned at open: the ETag, else the Last-Modified time.
+    fn version(&self) -> String {
+        match &self.meta.e_tag {
+            Some(t) => format!("ETag {t}"),
+            None => format!("Last-Modified {}", self.meta.last_modified),
         }
     }
 
     fn changed_error(&self, what: &str) -> io::Error {
-        let first = !self.inner.changed.swap(true, Ordering::Relaxed);
+        let first = !self.changed.swap(true, Ordering::Relaxed);
         if first {
             tracing::error!(
                 "{} changed on the server during the walk ({}; opened at {}): reads of the old scene stop, its resident reps stay drawn; open it again to see the new version",
-                self.inner.url,
+                self.url,
                 what,
                 self.version()
             );
@@ -238,22 +314,23 @@ impl RemoteSource {
             io::ErrorKind::StaleNetworkFileHandle,
             format!(
                 "{}: the scene changed on the server since it was opened ({})",
-                self.inner.url,
+                self.url,
                 self.version()
             ),
         )
     }
 
+    /// One ranged GET of the pinned version into `buf`; an answer counts
+    /// as a request and its bytes.
     async fn get(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
-        let i = &self.inner;
         let end = offset + buf.len() as u64;
         let opts = GetOptions {
             range: Some(GetRange::Bounded(offset..end)),
-            if_match: i.meta.e_tag.clone(),
-            if_unmodified_since: i.meta.e_tag.is_none().then_some(i.meta.last_modified),
+            if_match: self.meta.e_tag.clone(),
+            if_unmodified_since: self.meta.e_tag.is_none().then_some(self.meta.last_modified),
             ..GetOptions::default()
         };
-        let res = match i.store.get_opts(&i.path, opts).await {
+        let res = match self.store.get_opts(&self.path, opts).await {
             Ok(r) => r,
             Err(object_store::Error::Precondition { .. }) => {
                 return Err(self.changed_error("the server refused the pinned version"));
@@ -264,12 +341,12 @@ impl RemoteSource {
             Err(e) => {
                 return Err(io::Error::other(format!(
                     "{}: bytes {offset}..{end}: {e}",
-                    i.url
+                    self.url
                 )));
             }
         };
-        if res.meta.size != i.meta.size
-            || (i.meta.e_tag.is_some() && res.meta.e_tag != i.meta.e_tag)
+        if res.meta.size != self.meta.size
+            || (self.meta.e_tag.is_some() && res.meta.e_tag != self.meta.e_tag)
         {
             return Err(self.changed_error(&format!(
                 "now {} bytes, ETag {}",
@@ -280,31 +357,33 @@ impl RemoteSource {
         if res.range != (offset..end) {
             return Err(io::Error::other(format!(
                 "{}: asked for bytes {offset}..{end}, the server sent {:?}",
-                i.url, res.range
+                self.url, res.range
             )));
         }
         let bytes = res
             .bytes()
             .await
-            .map_err(|e| io::Error::other(format!("{}: bytes {offset}..{end}: {e}", i.url)))?;
+            .map_err(|e| io::Error::other(format!("{}: bytes {offset}..{end}: {e}", self.url)))?;
         if bytes.len() != buf.len() {
             return Err(io::Error::new(
                 io::ErrorKind::UnexpectedEof,
                 format!(
                     "{}: bytes {offset}..{end}: a short answer of {} bytes",
-                    i.url,
+                    self.url,
                     bytes.len()
                 ),
             ));
         }
         buf.copy_from_slice(&bytes);
+        self.requests.fetch_add(1, Ordering::Relaxed);
+        self.bytes.fetch_add(buf.len() as u64, Ordering::Relaxed);
         Ok(())
     }
 }
 
 impl ByteSource for RemoteSource {
     fn len(&self) -> u64 {
-        self.inner.meta.size
+        self.inner.conn.meta.size
     }
 
     fn read_at(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
@@ -312,24 +391,44 @@ impl ByteSource for RemoteSource {
         if buf.is_empty() {
             return Ok(());
         }
-        let res = if self.changed() {
+        let conn = &self.inner.conn;
+        if self.changed() {
             // No request for a version the server no longer has.
-            Err(self.changed_error(""))
-        } else {
-            self.inner.rt.block_on(self.get(offset, buf))
-        };
-        match &res {
-            Ok(()) => {
-                self.inner.requests.fetch_add(1, Ordering::Relaxed);
-                self.inner
-                    .bytes
-                    .fetch_add(buf.len() as u64, Ordering::Relaxed);
-            }
-            Err(_) => {
-                self.inner.failures.fetch_add(1, Ordering::Relaxed);
-            }
+            conn.failures.fetch_add(1, Ordering::Relaxed);
+            return Err(conn.changed_error(""));
+        }
+        if self.read_from_ahead(offset, buf) {
+            return Ok(());
+        }
+        let res = self.inner.rt.block_on(conn.get(offset, buf));
+        if res.is_err() {
+            conn.failures.fetch_add(1, Ordering::Relaxed);
         }
         res
+    }
+
+    fn read_ahead_max(&self) -> u64 {
+        self.inner.read_ahead_max
+    }
+
+    fn set_read_ahead(&self, bytes: u64) {
+        let cancel = self.ahead().set_cap(bytes.min(self.inner.read_ahead_max));
+        cancel.iter().for_each(JoinHandle::abort);
+    }
+
+    fn is_ready(&self, offset: u64, len: u64) -> bool {
+        self.ahead().is_ready(offset, len, JoinHandle::is_finished)
+    }
+
+    fn hint(&self, ranges: &[(u64, u64)]) {
+        let len = self.len();
+        let ranges: Vec<(u64, u64)> = ranges
+            .iter()
+            .map(|&(a, b)| (a, b.min(len)))
+            .filter(|&(a, b)| a < b)
+            .collect();
+        let cancel = self.ahead().hint(&ranges, self.starter());
+        cancel.iter().for_each(JoinHandle::abort);
     }
 }
 

@@ -12,6 +12,10 @@ use crate::disk::scene_source;
 use engine::disk::DiskModel;
 use engine::io::{ByteSource, FileSource};
 
+/// Requests in flight at once for a remote scene, unless told otherwise
+/// (CesiumJS allows 18 per server, 3DTilesRendererJS 25).
+pub const DEFAULT_REQUESTS: usize = 16;
+
 /// A scene opened once, from which each walk takes its own source.
 #[derive(Debug)]
 pub enum SceneHandle {
@@ -36,6 +40,12 @@ pub struct NetworkCounters {
     pub failures: u64,
     /// Bytes the disk cache served instead.
     pub cache_hit_bytes: u64,
+    /// Reads served from requests started ahead, and the bytes of answers
+    /// dropped unread (their ranges no longer hinted).
+    pub ahead_hits: u64,
+    pub ahead_dropped_bytes: u64,
+    /// The most requests in flight at once so far (not a difference).
+    pub peak_in_flight: u64,
 }
 
 impl std::ops::Sub for NetworkCounters {
@@ -46,6 +56,9 @@ impl std::ops::Sub for NetworkCounters {
             bytes: self.bytes - o.bytes,
             failures: self.failures - o.failures,
             cache_hit_bytes: self.cache_hit_bytes - o.cache_hit_bytes,
+            ahead_hits: self.ahead_hits - o.ahead_hits,
+            ahead_dropped_bytes: self.ahead_dropped_bytes - o.ahead_dropped_bytes,
+            peak_in_flight: self.peak_in_flight,
         }
     }
 }
@@ -69,9 +82,22 @@ impl SceneHandle {
     /// [`Self::open`], a remote scene read through the disk cache `cache`
     /// (ignored for a local file).
     pub fn open_cached(path: &Path, cache: Option<&DiskCacheSpec>) -> io::Result<Self> {
+        Self::open_with(path, cache, DEFAULT_REQUESTS)
+    }
+
+    /// [`Self::open_cached`] with at most `max_requests` requests in flight
+    /// for a remote scene (1: one at a time).
+    pub fn open_with(
+        path: &Path,
+        cache: Option<&DiskCacheSpec>,
+        max_requests: usize,
+    ) -> io::Result<Self> {
         #[cfg(feature = "remote")]
         if let Some(url) = path.to_str().filter(|s| crate::remote::is_remote(s)) {
-            let opts = crate::remote::RemoteOptions::default();
+            let opts = crate::remote::RemoteOptions {
+                max_requests,
+                ..crate::remote::RemoteOptions::default()
+            };
             let remote = crate::remote::RemoteSource::open(url, &opts).map_err(io::Error::other)?;
             let cached = match cache {
                 Some(c) => {
@@ -85,7 +111,7 @@ impl SceneHandle {
             };
             return Ok(Self::Remote(remote, cached));
         }
-        let _ = cache;
+        let _ = (cache, max_requests);
         engine::infile::open(path).map(Self::File)
     }
 
@@ -102,6 +128,9 @@ impl SceneHandle {
                     bytes: s.bytes,
                     failures: s.failures,
                     cache_hit_bytes: c.as_ref().map_or(0, |c| c.stats().hit_bytes),
+                    ahead_hits: s.ahead.hits,
+                    ahead_dropped_bytes: s.ahead.dropped_bytes,
+                    peak_in_flight: s.ahead.peak_in_flight,
                 }
             }
         }

@@ -4,6 +4,8 @@
 //! Out of core, the budget bounds everything the walk holds for geometry:
 //! - P_R's occluder store ([`crate::occlusion`]) takes `occluders` off the
 //!   top (at most half the budget);
+//! - requests started ahead on a network source ([`crate::ByteSource::hint`])
+//!   take `in_flight` ([`Footprint::with_read_ahead`]);
 //! - P_I's side, the rest ([`Footprint::reps`]), holds the resident reps
 //!   with their trees' and MTs' store reserves, the bytes reserved for
 //!   reads in flight and their scratch, the reps P_R draws fading out, and
@@ -37,6 +39,9 @@ pub struct Shares {
     pub total: u64,
     /// P_R's occluder store, taken off the top.
     pub occluders: u64,
+    /// What requests started ahead may hold (in flight, or answered and
+    /// not yet read), taken off the top.
+    pub in_flight: u64,
     /// The part of P_I's side that pages may take from prefetching.
     pub page_share: f32,
     /// The part of P_I's side that speculative reps may hold.
@@ -81,9 +86,35 @@ impl Footprint {
         Ok(Self::Bounded(Shares {
             total: params.budget_bytes,
             occluders: params.occlusion_bytes,
+            in_flight: 0,
             page_share: params.page_share,
             speculative_share,
         }))
+    }
+
+    /// The same with a share for reading ahead on a source that would hold
+    /// up to `max` bytes of requests started ahead: at most an eighth of
+    /// P_I's side, and none in core (everything is read at start). The
+    /// share given is [`Self::in_flight`].
+    pub fn with_read_ahead(self, max: u64) -> Self {
+        match self {
+            Self::InCore { .. } => self,
+            Self::Bounded(s) => {
+                let side = s.total - s.occluders - s.in_flight;
+                Self::Bounded(Shares {
+                    in_flight: s.in_flight + max.min(side / 8),
+                    ..s
+                })
+            }
+        }
+    }
+
+    /// Bytes requests started ahead may hold (0 when none).
+    pub fn in_flight(&self) -> u64 {
+        match self {
+            Self::InCore { .. } => 0,
+            Self::Bounded(s) => s.in_flight,
+        }
     }
 
     /// The user's footprint; `None` in core.
@@ -107,7 +138,7 @@ impl Footprint {
     pub fn reps(&self) -> Option<u64> {
         match self {
             Self::InCore { .. } => None,
-            Self::Bounded(s) => Some(s.total - s.occluders),
+            Self::Bounded(s) => Some(s.total - s.occluders - s.in_flight),
         }
     }
 
@@ -122,7 +153,8 @@ impl Footprint {
     /// else 0. Never in core.
     pub fn pages_cap(&self, page_bytes: u64, paging: bool) -> u64 {
         let Self::Bounded(s) = self else { return 0 };
-        let share = ((s.total - s.occluders) as f64 * f64::from(s.page_share)) as u64;
+        let side = s.total - s.occluders - s.in_flight;
+        let share = (side as f64 * f64::from(s.page_share)) as u64;
         if paging && page_bytes > 0 && share >= 2 * page_bytes {
             share
         } else {
@@ -156,7 +188,8 @@ impl Footprint {
         match self {
             Self::InCore { .. } => u64::MAX,
             Self::Bounded(s) => {
-                ((s.total - s.occluders) as f64 * f64::from(s.speculative_share)) as u64
+                let side = s.total - s.occluders - s.in_flight;
+                (side as f64 * f64::from(s.speculative_share)) as u64
             }
         }
     }

@@ -34,7 +34,7 @@ use super::footprint::Footprint;
 use super::resident::{Purpose, ResidentSet};
 use super::{Cmd, Draw, Mode, Reply, RuntimeError, RuntimeParams};
 use crate::camera::View;
-use crate::format::{RepRecord, check_rep_crc, expand_payload};
+use crate::format::{check_rep_crc, expand_payload};
 use crate::front::FrontIndex;
 use crate::io::ByteSource;
 use crate::metrics::LoaderCounters;
@@ -42,7 +42,7 @@ use crate::prefetch::Bins;
 use crate::skeleton::{RepId, Skeleton};
 use ahead::Lookahead;
 use classify::Classifier;
-use inbox::Inbox;
+use inbox::{Inbox, READY_POLL};
 use late::LateReads;
 use misses::MissAccount;
 use outbox::Outbox;
@@ -191,12 +191,18 @@ impl Loader {
                 }
             } else {
                 let t = self.clock.now();
-                let c = self.inbox.recv();
+                // Requests started ahead may answer meanwhile: look again soon.
+                let poll = (self.wait_fetch && self.fp.in_flight() > 0).then_some(READY_POLL);
+                let c = self.inbox.recv_within(poll);
                 if !self.wait_fetch {
                     self.stats.idle_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
                 }
                 match c {
-                    Ok(c) => c,
+                    Ok(Some(c)) => c,
+                    Ok(None) => {
+                        self.wait_fetch = false;
+                        continue;
+                    }
                     Err(_) => return,
                 }
             };
@@ -222,6 +228,7 @@ impl Loader {
                     if self.params.mode == Mode::Pre {
                         let t = self.clock.now();
                         self.classify(&view, turn_rad);
+                        self.hint_prefetch();
                         self.stats.classify_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
                     }
                 }
@@ -338,7 +345,7 @@ impl Loader {
             return Ok(());
         }
         let r = root.first_rep;
-        let need = self.cost(r) + load_scratch(&self.skeleton.reps[r as usize]);
+        let need = self.cost(r) + self.skeleton.reps[r as usize].load_scratch();
         self.fp.check_root(need)?;
         match self.load(r, Purpose::Demand) {
             Ok(_) => {
@@ -376,7 +383,7 @@ impl Loader {
                         let scratch = if self.res.contains(r) {
                             0
                         } else {
-                            load_scratch(rec(r))
+                            rec(r).load_scratch()
                         };
                         self.cost(r) + scratch
                     })
@@ -430,6 +437,7 @@ impl Loader {
         self.stats.miss_new += m.new;
         // In file order: neighbouring reps are read without a seek.
         missing.sort_unstable_by_key(|&r| self.skeleton.reps[r as usize].offset);
+        self.hint_reads(missing.iter().copied(), missing.len());
         self.late.clear();
         for (i, &r) in missing.iter().enumerate() {
             if !self.in_time_for_frame(r) {
@@ -466,7 +474,7 @@ impl Loader {
             // Between reads, only a preempted prefetch read holds a
             // reservation: its footprint and its stored copy.
             let held = self.partial.as_ref().map_or(0, |p| {
-                self.cost(p.rep) + load_scratch(&self.skeleton.reps[p.rep as usize])
+                self.cost(p.rep) + self.skeleton.reps[p.rep as usize].load_scratch()
             });
             assert_eq!(self.res.reserved(), held, "a reservation leaked");
         }
@@ -521,7 +529,7 @@ impl Loader {
             return Err(LoadError::Failed);
         }
         let rec = self.skeleton.reps[r as usize];
-        let scratch = load_scratch(&rec);
+        let scratch = rec.load_scratch();
         let len = self.cost(r) + scratch;
         // In core, a tree comes whole (P_R then refines it without paging).
         let read = if self.params.mode == Mode::Incore && rec.is_paged() {
@@ -680,21 +688,11 @@ impl Loader {
     }
 }
 
-/// Bytes that loading `rec` needs on top of its footprint: a compressed rep
-/// is read into a buffer of its stored size and then expanded, and both
-/// count until the stored bytes are dropped.
-pub(super) fn load_scratch(rec: &RepRecord) -> u64 {
-    rec.load_scratch()
-}
-
 /// Footprint of rep `r` while resident: its payload, and the reserve of a
 /// view-dependence tree's store.
 fn footprint(lens: &[u64], pools: &[u64], r: usize) -> u64 {
-    let pool = pools[r];
-    let pool = if pool == super::trees::UNUSABLE {
-        0
-    } else {
-        pool
-    };
-    lens[r] + pool
+    lens[r]
+        + Some(pools[r])
+            .filter(|&p| p != super::trees::UNUSABLE)
+            .unwrap_or(0)
 }

@@ -191,7 +191,9 @@ impl Walkthrough {
         let (reply_tx, reply_rx) = bounded(loader::reply_capacity(skeleton.reps.len()));
         let (ready_tx, ready_rx) = bounded(1);
         // P_I's reps get the footprint less the occluder store.
-        let fp = Footprint::new(&params)?;
+        // Requests started ahead on a network source get their share.
+        let fp = Footprint::new(&params)?.with_read_ahead(source.read_ahead_max());
+        source.set_read_ahead(fp.in_flight());
         let l = loader::Loader::new(
             skeleton.clone(),
             index.clone(),

@@ -155,7 +155,7 @@ proptest! {
     ) {
         let (skel, src) = if compressed { wide_compressed(64) } else { wide(64) };
         let total: u64 = skel.reps.iter().map(|r| r.resident_len()).sum();
-        let root = skel.reps[0].resident_len() + super::loader::load_scratch(&skel.reps[0]);
+        let root = skel.reps[0].resident_len() + skel.reps[0].load_scratch();
         let budget = root + ((total - root) as f64 * budget_frac) as u64;
         let mode = if prefetch { Mode::Pre } else { Mode::NoPre };
         // The occluder store comes out of the footprint: P_I keeps enough

@@ -107,6 +107,10 @@ fn fast_options() -> RemoteOptions {
         init_backoff: Duration::from_millis(10),
         max_backoff: Duration::from_millis(50),
         retry_timeout: Duration::from_secs(5),
+        // One request at a time: each fault pattern meets the reads it is
+        // queued for (reading ahead is tested on its own).
+        max_requests: 1,
+        read_ahead_bytes: 0,
     }
 }
 
@@ -451,4 +455,66 @@ fn reps_that_failed_while_the_server_was_down_are_read_once_it_is_back() {
         subst(&clean[180..]),
         "every rep lost to the outage is drawn again"
     );
+}
+
+#[test]
+fn requests_in_flight_serve_the_walk_as_one_at_a_time_does_within_the_budget() {
+    let Some((_dir, local, nginx, _url)) = served_plant("remote::requests_in_flight") else {
+        return;
+    };
+    // 20 ms a request, as a server some way off.
+    let proxy = FaultProxy::start(nginx.port, Duration::from_millis(20));
+    let url = format!("{}/plant.hlod", proxy.base);
+    let file = SceneFile::open(&local).unwrap();
+    let skel = Arc::new(file.skeleton().clone());
+    let data: u64 = skel.reps.iter().map(|r| r.expanded_extent()).sum();
+    let poses = flythrough(&skel, 90);
+    let budget = data / 8;
+    for mode in [Mode::NoPre, Mode::Pre] {
+        let from_file: Arc<dyn ByteSource> = Arc::new(FileSource::open(&local).unwrap());
+        let on_disk = walk(&skel, from_file, mode, budget, &poses);
+        for max_requests in [1, 16] {
+            let opts = RemoteOptions {
+                max_requests,
+                ..RemoteOptions::default()
+            };
+            let src = RemoteSource::open(&url, &opts).unwrap();
+            let p = RuntimeParams {
+                page_bytes: engine::runtime::REMOTE_PAGE_BYTES,
+                ..params(mode, budget)
+            };
+            let mut w = Walkthrough::start(skel.clone(), Arc::new(src.clone()), p).unwrap();
+            let ahead = w.footprint().in_flight();
+            let frames = run_path(&mut w, &poses, &mut NoneRenderer::new(0.0), 0.0).unwrap();
+            drop(w);
+            let fronts = |f: &[FrameMetrics]| f.iter().map(|m| m.front_reps).collect::<Vec<_>>();
+            assert_eq!(fronts(&frames), fronts(&on_disk), "{mode:?} {max_requests}");
+            assert_eq!(errors(&frames), 0, "{mode:?} {max_requests}");
+            for f in &frames {
+                // The reps and pages held, beside what the requests ahead
+                // may hold: within the budget on every frame.
+                assert!(
+                    f.loader.max_resident_bytes + ahead <= budget,
+                    "frame {}",
+                    f.frame
+                );
+                assert_eq!(f.drawn_reps + f.substituted, f.front_reps);
+            }
+            let st = src.stats();
+            if max_requests == 1 {
+                assert_eq!(
+                    (ahead, st.ahead.started),
+                    (0, 0),
+                    "one at a time: nothing ahead"
+                );
+            } else {
+                assert!(ahead > 0 && ahead <= budget / 8, "{ahead} of {budget}");
+                assert!(st.ahead.peak_in_flight > 1, "{st:?}");
+                assert!(
+                    st.ahead.hits > 0,
+                    "reads served from requests started ahead: {st:?}"
+                );
+            }
+        }
+    }
 }

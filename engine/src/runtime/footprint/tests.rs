@@ -41,6 +41,20 @@ fn the_shares_are_derived_from_the_budget_once() {
 }
 
 #[test]
+fn requests_started_ahead_get_at_most_an_eighth_of_p_is_side() {
+    let f = bounded(1000, 200).with_read_ahead(1 << 20);
+    assert_eq!((f.in_flight(), f.reps()), (100, Some(700)));
+    assert_eq!(bounded(1000, 200).with_read_ahead(40).in_flight(), 40);
+    assert_eq!(bounded(1000, 0).with_read_ahead(0), bounded(1000, 0));
+    let core = Footprint::InCore { occluders: 0 };
+    assert_eq!(
+        core.with_read_ahead(1 << 20).in_flight(),
+        0,
+        "in core: read at start"
+    );
+}
+
+#[test]
 fn in_core_is_a_variant_that_bounds_nothing() {
     let p = RuntimeParams {
         mode: Mode::Incore,
@@ -134,11 +148,13 @@ proptest! {
     fn reps_pages_and_reservations_never_exceed_the_budget(
         total in 2000u64..20_000,
         occ_share in 0.0f64..0.5,
+        // What a network source would hold for requests started ahead.
+        ahead in prop_oneof![Just(0u64), 0u64..10_000],
         costs in prop::collection::vec(1u64..900, 40),
         scratch in prop::collection::vec(prop_oneof![Just(0u64), 1u64..300], 40),
         ops in prop::collection::vec(op(), 1..200),
     ) {
-        let f = bounded(total, (total as f64 * occ_share) as u64);
+        let f = bounded(total, (total as f64 * occ_share) as u64).with_read_ahead(ahead);
         let side = f.reps().unwrap();
         let mut res = ResidentSet::new(costs.clone());
         // The pages held, least recently used first.
@@ -148,7 +164,7 @@ proptest! {
         let check = |res: &ResidentSet, pages: &[u64]| {
             let held = Held { reps: res.bytes(), pages: pages.iter().sum() };
             prop_assert!(f.holds(held), "{held:?} over {side}");
-            prop_assert!(held.sum() + f.occluders() <= total);
+            prop_assert!(held.sum() + f.occluders() + f.in_flight() <= total);
             prop_assert!(res.validate().is_ok());
             Ok(())
         };

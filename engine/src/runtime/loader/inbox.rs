@@ -3,9 +3,15 @@
 //! command loop; a settle request ([`Cmd::Settle`]) preempts nothing: it is
 //! kept aside and answered when P_I next runs out of work.
 
-use crossbeam_channel::{Receiver, RecvError, Sender, TryRecvError};
+use std::time::Duration;
+
+use crossbeam_channel::{Receiver, RecvError, RecvTimeoutError, Sender, TryRecvError};
 
 use super::super::Cmd;
+
+/// How often P_I, waiting for the next fetch command with nothing it may
+/// start in time, looks again whether requests started ahead have answered.
+pub(super) const READY_POLL: Duration = Duration::from_millis(2);
 
 pub(super) struct Inbox {
     rx: Receiver<Cmd>,
@@ -50,6 +56,29 @@ impl Inbox {
                 Cmd::Settle(s) => self.settle = Some(s),
                 c => return Ok(c),
             }
+        }
+    }
+
+    /// [`recv`](Self::recv) waiting at most `poll` (`None`: as long as
+    /// it takes); `Ok(None)` when nothing came in that time.
+    pub(super) fn recv_within(&mut self, poll: Option<Duration>) -> Result<Option<Cmd>, RecvError> {
+        let Some(d) = poll else {
+            return self.recv().map(Some);
+        };
+        if let Some(c) = self.pending.take() {
+            return Ok(Some(c));
+        }
+        if let Some(s) = self.settle.take() {
+            let _ = s.send(());
+        }
+        match self.rx.recv_timeout(d) {
+            Ok(Cmd::Settle(s)) => {
+                self.settle = Some(s);
+                Ok(None)
+            }
+            Ok(c) => Ok(Some(c)),
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Err(RecvError),
         }
     }
 

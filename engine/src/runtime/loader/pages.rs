@@ -22,6 +22,7 @@ use super::{Loader, Purpose};
 use crate::format::RepRecord;
 use crate::runtime::Mode;
 use crate::runtime::footprint::Held;
+use crate::skeleton::RepId;
 
 /// Stored bytes of recently read pages, least recently used first out.
 #[derive(Debug)]
@@ -328,6 +329,62 @@ impl Loader {
         any
     }
 
+    /// Tells the source the reads that come next, `reps` in the order P_I
+    /// reads them, as few ranges as cover them: the pages not held where
+    /// reads go by pages, else each rep's stored bytes, and a range goes
+    /// on over a gap P_I would read through (a read of the gap and of the
+    /// rep after it are then one request). Up to what the reps' room holds
+    /// (a rep that will find no room is not fetched) and `limit` ranges;
+    /// what is resident or failed is skipped. A source that starts requests
+    /// ahead (a network, within the footprint's `in_flight` share) serves
+    /// the reads from them; a file ignores it.
+    pub(super) fn hint_reads(&self, reps: impl IntoIterator<Item = RepId>, limit: usize) {
+        if self.fp.in_flight() == 0 {
+            return;
+        }
+        let (p, gap) = (self.params.page_bytes, self.max_gap());
+        // Several ranges fit the share at once.
+        let longest = (self.fp.in_flight() / 4).max(p);
+        let mut room = self.rep_room(Purpose::Demand).unwrap_or(u64::MAX);
+        let mut ranges: Vec<(u64, u64)> = Vec::new();
+        let add = |ranges: &mut Vec<(u64, u64)>, (a, b): (u64, u64)| match ranges.last_mut() {
+            Some(l) if a >= l.0 && a <= l.1.saturating_add(gap) && b - l.0 <= longest => {
+                l.1 = l.1.max(b);
+            }
+            _ => ranges.push((a, b)),
+        };
+        for r in reps {
+            let rec = &self.skeleton.reps[r as usize];
+            if self.res.contains(r) || self.failed[r as usize] {
+                continue;
+            }
+            let need = self.cost(r) + rec.load_scratch();
+            if need > room {
+                break;
+            }
+            room -= need;
+            if self.by_pages(rec) {
+                let (a, b) = self.pages.span(rec.offset, u64::from(rec.len));
+                for page in (a..=b).filter(|&g| !self.pages.covers(g * p, 1)) {
+                    add(&mut ranges, (page * p, (page + 1) * p));
+                }
+            } else {
+                add(&mut ranges, (rec.offset, rec.offset + u64::from(rec.len)));
+            }
+            if ranges.len() >= limit {
+                break;
+            }
+        }
+        self.source.hint(&ranges);
+    }
+
+    /// [`hint_reads`](Self::hint_reads) for what P_I prefetches next: the
+    /// fronts ahead, then the bins in the order they are served.
+    pub(super) fn hint_prefetch(&self) {
+        let ahead = self.ahead.queue.rest().iter().copied();
+        self.hint_reads(ahead.chain(self.classes.bins.iter().map(|(r, _)| r)), 1024);
+    }
+
     /// The expected time of rep `rec`'s read by pages: nothing but a copy
     /// when its pages are held, else the first missing page's seek and
     /// transfer. `None` when it is not read by pages.
@@ -336,12 +393,12 @@ impl Loader {
             return None;
         }
         let len = u64::from(rec.len);
+        let p = self.params.page_bytes;
         Some(match self.pages.first_missing(rec.offset, len) {
             None => self.costs.overhead_s,
-            Some(page) => {
-                let p = self.params.page_bytes;
-                self.costs.first_block_estimate(page * p, p, p)
-            }
+            // Answered already: a copy.
+            Some(page) if self.source.is_ready(page * p, p) => self.costs.overhead_s,
+            Some(page) => self.costs.first_block_estimate(page * p, p, p),
         })
     }
 

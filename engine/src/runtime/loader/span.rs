@@ -186,6 +186,11 @@ pub(super) struct ReadQueue {
 }
 
 impl ReadQueue {
+    /// The reps not served yet, in order.
+    pub(super) fn rest(&self) -> &[RepId] {
+        self.reps.get(self.at..).unwrap_or_default()
+    }
+
     pub(super) fn clear(&mut self) {
         self.reps.clear();
         self.at = 0;
@@ -339,7 +344,7 @@ impl Loader {
         match self.partial.take() {
             Some(p) => {
                 // What `load` reserved: the footprint and the stored copy.
-                let c = self.cost(p.rep) + super::load_scratch(&self.skeleton.reps[p.rep as usize]);
+                let c = self.cost(p.rep) + self.skeleton.reps[p.rep as usize].load_scratch();
                 self.res.release(c);
                 true
             }
@@ -373,8 +378,12 @@ impl Loader {
                 None => (rec.offset, u64::from(rec.len)),
             },
         };
-        self.costs
-            .first_block_estimate(at, bytes, self.params.block_bytes as u64)
+        let block = self.params.block_bytes as u64;
+        if self.source.is_ready(at, bytes.min(block)) {
+            // Answered already (a request started ahead): a copy.
+            return self.costs.overhead_s;
+        }
+        self.costs.first_block_estimate(at, bytes, block)
     }
 
     /// The same for `len` bytes read on from where the last read ended.

@@ -71,6 +71,10 @@ pub struct Args {
     /// The disk cache's bound (B, KB, MB, GB, TB, KiB, MiB, GiB, TiB).
     #[arg(long, default_value = "4GiB")]
     pub disk_cache_size: String,
+    /// For a scene given by URL: requests in flight at once for the reads
+    /// P_I does next (1: one at a time).
+    #[arg(long, default_value_t = engine_cli::scene_handle::DEFAULT_REQUESTS, value_parser = in_range(1usize, 256))]
+    pub requests: usize,
     /// Frame pacing (0: as fast as possible).
     #[arg(long, default_value_t = 30.0, value_parser = zero_or_in(1.0f32, 1000.0))]
     pub fps: f32,

@@ -92,8 +92,8 @@ fn run(a: Args) -> Result<()> {
         }),
         None => None,
     };
-    let handle =
-        SceneHandle::open_cached(&a.scene, cache.as_ref()).with_context(|| scene_name.clone())?;
+    let handle = SceneHandle::open_with(&a.scene, cache.as_ref(), a.requests)
+        .with_context(|| scene_name.clone())?;
     let scene = SceneFile::from_source(handle.raw()?).with_context(|| scene_name.clone())?;
     let skel = Arc::new(scene.skeleton().clone());
     let hiding = if a.hide.is_empty() && a.xray.is_empty() {
@@ -347,7 +347,7 @@ fn run(a: Args) -> Result<()> {
     let mut quality_rows: Vec<String> = Vec::new();
     let mut warnings = String::new();
     let mut network = String::from(
-        "\n| run | requests | MiB fetched | KiB per request | failed reads | MiB from the disk cache |\n|---|---:|---:|---:|---:|---:|\n",
+        "\n| run | requests | MiB fetched | KiB per request | failed reads | MiB from the disk cache | reads served ahead | MiB ahead dropped unread | most in flight |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     let mut startup =
         String::from("\n| run | start-up ms | start-up MiB read |\n|---|---:|---:|\n");
@@ -452,12 +452,15 @@ fn run(a: Args) -> Result<()> {
         csv.finish()?;
         let net = handle.network() - net0;
         network.push_str(&format!(
-            "| {tag} | {} | {:.2} | {:.1} | {} | {:.2} |\n",
+            "| {tag} | {} | {:.2} | {:.1} | {} | {:.2} | {} | {:.2} | {} |\n",
             net.requests,
             net.bytes as f64 / 1048576.0,
             net.bytes as f64 / 1024.0 / net.requests.max(1) as f64,
             net.failures,
-            net.cache_hit_bytes as f64 / 1048576.0
+            net.cache_hit_bytes as f64 / 1048576.0,
+            net.ahead_hits,
+            net.ahead_dropped_bytes as f64 / 1048576.0,
+            net.peak_in_flight
         ));
         startup.push_str(&format!(
             "| {tag} | {start_ms:.0} | {:.2} |\n",
