@@ -25,6 +25,11 @@ pub trait Clock: Send + Sync + Debug {
         false
     }
 
+    /// Milliseconds since `t` (0 for an instant still to come).
+    fn ms_since(&self, t: Instant) -> f64 {
+        self.now().saturating_duration_since(t).as_secs_f64() * 1e3
+    }
+
     /// [`Self::sleep_until`] `d` from now.
     fn sleep(&self, d: Duration) {
         self.sleep_until(self.now() + d);

@@ -184,9 +184,15 @@ pub fn parse_size(option: &str, s: &str, data_bytes: u64, max_percent: f64) -> a
     } else {
         bytes_of(option, t)?
     };
+    within_memory(option, s, bytes)
+}
+
+/// `bytes` (of the size `s` given to `option`), unless more than this
+/// machine's memory.
+fn within_memory(option: &str, s: &str, bytes: f64) -> anyhow::Result<u64> {
     let limit = engine::limits::memory_total();
     if bytes > limit as f64 {
-        bail!(
+        anyhow::bail!(
             "{option} {s:?} is more than this machine's memory ({})",
             engine::limits::human(limit)
         );
@@ -271,8 +277,8 @@ impl BudgetArg {
             Self::Auto => auto_budget(skeleton),
             Self::Bytes(b) => b,
             Self::Percent(p) => {
-                let data = skeleton.in_core_bytes().max(1);
-                parse_size("--budget", &format!("{p}%"), data, 100.0)?.max(1)
+                let bytes = skeleton.in_core_bytes() as f64 * p / 100.0;
+                within_memory("--budget", &format!("{p}%"), bytes)?.max(1)
             }
         })
     }

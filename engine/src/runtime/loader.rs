@@ -195,7 +195,7 @@ impl Loader {
                 let poll = (self.wait_fetch && self.fp.in_flight() > 0).then_some(READY_POLL);
                 let c = self.inbox.recv_within(poll);
                 if !self.wait_fetch {
-                    self.stats.idle_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
+                    self.stats.idle_ms += self.clock.ms_since(t);
                 }
                 match c {
                     Ok(Some(c)) => c,
@@ -229,7 +229,7 @@ impl Loader {
                         let t = self.clock.now();
                         self.classify(&view, turn_rad);
                         self.hint_prefetch();
-                        self.stats.classify_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
+                        self.stats.classify_ms += self.clock.ms_since(t);
                     }
                 }
                 Cmd::Unusable(r) => self.unusable(r),
@@ -295,7 +295,7 @@ impl Loader {
             self.clock.as_ref(),
             &mut stop,
         );
-        self.stats.lookahead_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
+        self.stats.lookahead_ms += self.clock.ms_since(t);
     }
 
     /// Footprint bytes of rep `r` while resident: its payload, and the
@@ -607,7 +607,7 @@ impl Loader {
                     return Err(self.fail(r, &e.to_string(), false));
                 }
             };
-            self.stats.expand_ms += (self.clock.now() - t).as_secs_f64() * 1e3;
+            self.stats.expand_ms += self.clock.ms_since(t);
             self.stats.expanded_bytes += expanded.len() as u64;
             drop(buf);
             self.res.release(scratch);

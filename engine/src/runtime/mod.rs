@@ -390,7 +390,7 @@ impl Walkthrough {
                 Err(_) => {
                     let w = self.clock.now();
                     let r = self.replies.recv().map_err(|_| RuntimeError::LoaderGone)?;
-                    wait += select::ms_since(self.clock.as_ref(), w);
+                    wait += self.clock.ms_since(w);
                     r
                 }
             };
@@ -449,7 +449,7 @@ impl Walkthrough {
         m.gpu_bytes = renderer.gpu_bytes();
         m.wait_ms = wait;
         m.loader = stats;
-        m.frame_ms = select::ms_since(self.clock.as_ref(), t0);
+        m.frame_ms = self.clock.ms_since(t0);
         let draw_ms = m.frame_ms - m.front_ms - m.occlusion_ms - m.wait_ms;
         self.select
             .observe_frame(m.frame_ms, draw_ms.max(0.0), m.drawn_tris);

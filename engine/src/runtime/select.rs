@@ -13,11 +13,6 @@ use crate::metrics::FrameMetrics;
 use crate::occlusion::OcclusionCuller;
 use crate::skeleton::{RepId, Skeleton};
 
-/// Milliseconds on `clock` since `t`.
-pub(super) fn ms_since(clock: &dyn Clock, t: std::time::Instant) -> f64 {
-    clock.now().saturating_duration_since(t).as_secs_f64() * 1e3
-}
-
 /// One frame's front.
 #[derive(Debug, Default)]
 pub(super) struct Selected {
@@ -88,11 +83,11 @@ impl FrontSelect {
             .index
             .compute(view, &view.frustum(0.0), tol, &mut out.front);
         out.nodes_visited += fs.nodes_visited;
-        out.front_ms += ms_since(self.clock.as_ref(), t);
+        out.front_ms += self.clock.ms_since(t);
         if let Some(c) = &mut self.occlusion {
             let t = self.clock.now();
             c.cull(view, s, &self.index, tol, &mut out.front, &mut out.hidden);
-            out.occlusion_ms += ms_since(self.clock.as_ref(), t);
+            out.occlusion_ms += self.clock.ms_since(t);
         }
         let mut cost = FrontCost::default();
         for &r in &out.front {
@@ -154,7 +149,7 @@ impl FrontSelect {
         };
         let t = self.clock.now();
         c.end_frame(s, &self.index, front);
-        m.occlusion_ms += ms_since(self.clock.as_ref(), t);
+        m.occlusion_ms += self.clock.ms_since(t);
         let cs = c.stats();
         m.occluders = cs.occluders;
         m.occluded_reps = cs.occluded;

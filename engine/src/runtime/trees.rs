@@ -242,7 +242,7 @@ impl Trees {
         } else {
             self.refine_and_draw(r, payload, view, tolerance_px, renderer, out)
         };
-        out.ms += super::select::ms_since(self.clock.as_ref(), t0);
+        out.ms += self.clock.ms_since(t0);
         if let Err(why) = &done {
             tracing::warn!("paged rep {r}: {why}; its finest static LOD is drawn instead");
             self.live.remove(&r);

@@ -59,42 +59,29 @@ impl Inbox {
         }
     }
 
-    /// [`recv`](Self::recv) waiting at most `poll` (`None`: as long as
-    /// it takes); `Ok(None)` when nothing came in that time.
+    /// The next command, waiting at most `poll` for it (`None`: as long as
+    /// it takes); `Ok(None)` when nothing came in that time. P_I has
+    /// nothing else to do, so a settle request, kept or arriving, is
+    /// answered first.
     pub(super) fn recv_within(&mut self, poll: Option<Duration>) -> Result<Option<Cmd>, RecvError> {
-        let Some(d) = poll else {
-            return self.recv().map(Some);
-        };
         if let Some(c) = self.pending.take() {
             return Ok(Some(c));
-        }
-        if let Some(s) = self.settle.take() {
-            let _ = s.send(());
-        }
-        match self.rx.recv_timeout(d) {
-            Ok(Cmd::Settle(s)) => {
-                self.settle = Some(s);
-                Ok(None)
-            }
-            Ok(c) => Ok(Some(c)),
-            Err(RecvTimeoutError::Timeout) => Ok(None),
-            Err(RecvTimeoutError::Disconnected) => Err(RecvError),
-        }
-    }
-
-    /// The next command, waiting for it: P_I has nothing else to do, so a
-    /// settle request, kept or arriving, is answered first.
-    pub(super) fn recv(&mut self) -> Result<Cmd, RecvError> {
-        if let Some(c) = self.pending.take() {
-            return Ok(c);
         }
         loop {
             if let Some(s) = self.settle.take() {
                 let _ = s.send(());
             }
-            match self.rx.recv()? {
+            let c = match poll {
+                None => self.rx.recv()?,
+                Some(d) => match self.rx.recv_timeout(d) {
+                    Ok(c) => c,
+                    Err(RecvTimeoutError::Timeout) => return Ok(None),
+                    Err(RecvTimeoutError::Disconnected) => return Err(RecvError),
+                },
+            };
+            match c {
                 Cmd::Settle(s) => self.settle = Some(s),
-                c => return Ok(c),
+                c => return Ok(Some(c)),
             }
         }
     }
@@ -119,7 +106,7 @@ mod tests {
         assert!(matches!(inbox.try_recv(), Ok(Cmd::Unusable(3))));
         // Idle: the request is answered before waiting for the next command.
         tx.send(Cmd::Shutdown).unwrap();
-        assert!(matches!(inbox.recv(), Ok(Cmd::Shutdown)));
+        assert!(matches!(inbox.recv_within(None), Ok(Some(Cmd::Shutdown))));
         assert!(srx.try_recv().is_ok());
     }
 }

@@ -82,7 +82,7 @@ impl Outbox {
             Err(crossbeam_channel::TrySendError::Full(r)) => {
                 let t = clock.now();
                 let sent = self.tx.send(r).map_err(|_| RendererGone);
-                self.wait_ms += (clock.now() - t).as_secs_f64() * 1e3;
+                self.wait_ms += clock.ms_since(t);
                 sent
             }
             Err(crossbeam_channel::TrySendError::Disconnected(_)) => Err(RendererGone),
