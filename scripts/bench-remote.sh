@@ -3,7 +3,9 @@
 # latency-proxy adds a round-trip time per request in front of it (this kernel has no netem),
 # and hlod-bench walks each path kind from the local file (incore, nopre, pre), then nopre and pre over
 # HTTP at each RTT, then twice through a disk cache at the last RTT (the first visit fills
-# it, the second reads from it). Tables go to out/remote/NAME/; summary.md gathers them.
+# it, the second reads from it). With MBIT=N in the environment, every RTT is also walked through
+# a link of N Mbit/s shared by its requests (the proxy's own cap, which needs no root, unlike tc tbf).
+# Tables go to out/remote/NAME/; summary.md gathers them.
 # Usage: scripts/bench-remote.sh SCENE BUDGET [PATH-KINDS] [RTTS-MS] [FRAMES] [hlod-bench options…]
 #   scripts/bench-remote.sh de2.hlod 7.5% flythrough,approach-orbit 0,20,50,100 300
 #   scripts/bench-remote.sh schep10.hlod 2.5% flythrough,approach-orbit 0,20,50,100 300 --occlusion 0.1
@@ -33,6 +35,10 @@ IFS=, read -ra rtt_list <<< "$rtts"
 for r in "${rtt_list[@]}"; do
   target/release/latency-proxy $((port + 1000 + r)) "$port" "$r" > /dev/null &
   pids+=($!)
+  if [ -n "${MBIT:-}" ]; then
+    target/release/latency-proxy $((port + 2000 + r)) "$port" "$r" "$MBIT" > /dev/null &
+    pids+=($!)
+  fi
 done
 sleep 0.5
 bench() { target/release/hlod-bench "$@" --budget "$budget" --frames "$frames" "${extra[@]}"; }
@@ -45,6 +51,11 @@ for kind in "${kind_list[@]}"; do
     url="http://127.0.0.1:$((port + 1000 + r))/$(basename "$scene")"
     bench "$url" --path-kind "$kind" --modes nopre,pre --out "$out/$kind/rtt$r" > /dev/null
     { echo; echo "## $kind: RTT $r ms"; cat "$out/$kind/rtt$r/summary.md"; } >> "$summary"
+    if [ -n "${MBIT:-}" ]; then
+      url="http://127.0.0.1:$((port + 2000 + r))/$(basename "$scene")"
+      bench "$url" --path-kind "$kind" --modes nopre,pre --out "$out/$kind/rtt$r-${MBIT}mbit" > /dev/null
+      { echo; echo "## $kind: RTT $r ms, $MBIT Mbit/s"; cat "$out/$kind/rtt$r-${MBIT}mbit/summary.md"; } >> "$summary"
+    fi
   done
   r=${rtt_list[-1]}
   url="http://127.0.0.1:$((port + 1000 + r))/$(basename "$scene")"

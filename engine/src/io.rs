@@ -7,6 +7,16 @@ use std::fs::File;
 use std::io;
 use std::path::Path;
 use std::sync::Arc;
+use std::time::Duration;
+
+/// One answer of a source that times its requests
+/// ([`ByteSource::times_requests`]): its bytes, and the time from asking to
+/// its last byte.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Response {
+    pub bytes: u64,
+    pub took: Duration,
+}
 
 /// A random-access, read-only byte source (a file, a buffer, a disk model).
 pub trait ByteSource: Send + Sync {
@@ -50,6 +60,20 @@ pub trait ByteSource: Send + Sync {
     fn is_ready(&self, _offset: u64, _len: u64) -> bool {
         false
     }
+
+    /// Whether this source times its own requests (a network's, whose
+    /// answers may come before they are read): P_I then learns what a
+    /// request costs from [`take_responses`](Self::take_responses) — a
+    /// round trip and a rate — rather than from how long its reads take,
+    /// since a read served from an answer already here takes no time.
+    /// `false`, the default: a read is a request (a file, a disk model).
+    fn times_requests(&self) -> bool {
+        false
+    }
+
+    /// Appends the answers received since the last call to `out`, oldest
+    /// first (a source keeps a bounded number).
+    fn take_responses(&self, _out: &mut Vec<Response>) {}
 }
 
 /// A shared source is a source (a walk and a reader of the skeleton may
@@ -77,6 +101,14 @@ impl<T: ByteSource + ?Sized> ByteSource for Arc<T> {
 
     fn is_ready(&self, offset: u64, len: u64) -> bool {
         (**self).is_ready(offset, len)
+    }
+
+    fn times_requests(&self) -> bool {
+        (**self).times_requests()
+    }
+
+    fn take_responses(&self, out: &mut Vec<Response>) {
+        (**self).take_responses(out);
     }
 }
 

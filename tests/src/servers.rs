@@ -2,7 +2,7 @@
 //! through `scripts/serve.sh`, as a user would start it), and a fault proxy
 //! in front of it that answers chosen requests wrongly: a status code, the
 //! whole file instead of the range, a short body, a reset or a stall, or
-//! every answer late (a round-trip time).
+//! every answer late (a round-trip time) and through a link of a given rate.
 
 use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, Read, Write};
@@ -152,6 +152,19 @@ impl FaultProxy {
 
     /// The same on port `port` (0: any free one).
     pub fn start_on(port: u16, upstream_port: u16, delay: Duration) -> Self {
+        Self::start_link(port, upstream_port, delay, None)
+    }
+
+    /// The same with every answer's bytes sent through one link of
+    /// `bytes_per_sec` that all connections share (none: as fast as the
+    /// loopback): the rate a far server's path would allow.
+    pub fn start_link(
+        port: u16,
+        upstream_port: u16,
+        delay: Duration,
+        bytes_per_sec: Option<f64>,
+    ) -> Self {
+        let link = bytes_per_sec.map(Link::new);
         let listener = TcpListener::bind(("127.0.0.1", port)).expect("binds");
         let port = listener.local_addr().expect("addr").port();
         let queue: Arc<Mutex<VecDeque<Fault>>> = Arc::default();
@@ -159,9 +172,9 @@ impl FaultProxy {
         let (q, n) = (queue.clone(), requests.clone());
         std::thread::spawn(move || {
             for conn in listener.incoming().flatten() {
-                let (q, n) = (q.clone(), n.clone());
+                let (q, n, link) = (q.clone(), n.clone(), link.clone());
                 std::thread::spawn(move || {
-                    let _ = serve_conn(conn, upstream_port, delay, &q, &n);
+                    let _ = serve_conn(conn, (upstream_port, delay, link), &q, &n);
                 });
             }
         });
@@ -180,6 +193,42 @@ impl FaultProxy {
     /// Drops the faults not yet used.
     pub fn clear(&self) {
         self.queue.lock().expect("lock").clear();
+    }
+}
+
+/// A link of a fixed rate shared by the proxy's connections: each chunk
+/// sent waits for the link to be free and holds it for its transfer (first
+/// come, first served), so answers in flight together share the rate.
+#[derive(Debug, Clone)]
+struct Link {
+    bytes_per_sec: f64,
+    free_at: Arc<Mutex<Instant>>,
+}
+
+impl Link {
+    /// Chunks sent through the link at a time.
+    const CHUNK: usize = 16 << 10;
+
+    fn new(bytes_per_sec: f64) -> Self {
+        Self {
+            bytes_per_sec,
+            free_at: Arc::new(Mutex::new(Instant::now())),
+        }
+    }
+
+    /// Writes `bytes` to `to` at the link's rate.
+    fn send(&self, to: &mut TcpStream, bytes: &[u8]) -> std::io::Result<()> {
+        for chunk in bytes.chunks(Self::CHUNK) {
+            let done = {
+                let mut free = self.free_at.lock().expect("lock");
+                let start = (*free).max(Instant::now());
+                *free = start + Duration::from_secs_f64(chunk.len() as f64 / self.bytes_per_sec);
+                *free
+            };
+            std::thread::sleep(done.saturating_duration_since(Instant::now()));
+            to.write_all(chunk)?;
+        }
+        Ok(())
     }
 }
 
@@ -210,8 +259,7 @@ fn content_length(head: &[String]) -> usize {
 
 fn serve_conn(
     client: TcpStream,
-    upstream_port: u16,
-    delay: Duration,
+    (upstream_port, delay, link): (u16, Duration, Option<Link>),
     queue: &Mutex<VecDeque<Fault>>,
     requests: &AtomicU64,
 ) -> std::io::Result<()> {
@@ -276,7 +324,10 @@ fn serve_conn(
             len
         };
         answer.extend_from_slice(&body[..sent]);
-        client.write_all(&answer)?;
+        match &link {
+            Some(link) => link.send(&mut client, &answer)?,
+            None => client.write_all(&answer)?,
+        }
         if fault == Fault::ShortBody {
             return Ok(());
         }

@@ -21,10 +21,11 @@
 //! with a user name, password or query string is refused, so that no secret
 //! is ever given on a command line or written to a log.
 
+use std::collections::VecDeque;
 use std::io;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use object_store::aws::{AmazonS3Builder, AmazonS3ConfigKey};
 use object_store::http::HttpBuilder;
@@ -34,7 +35,7 @@ use object_store::{
     ObjectStoreExt, RetryConfig,
 };
 
-use engine::io::ByteSource;
+use engine::io::{ByteSource, Response};
 use tokio::task::JoinHandle;
 
 use crate::read_ahead::{Lookup, ReadAhead};
@@ -167,7 +168,12 @@ struct Conn {
     requests: AtomicU64,
     bytes: AtomicU64,
     failures: AtomicU64,
+    /// The answers not yet taken by P_I (the newest [`ANSWERS_KEPT`]).
+    answers: std::sync::Mutex<VecDeque<Response>>,
 }
+
+/// Answers kept for P_I to learn from; older ones are dropped.
+const ANSWERS_KEPT: usize = 1024;
 
 impl std::fmt::Debug for RemoteSource {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -215,6 +221,7 @@ impl RemoteSource {
                     requests: AtomicU64::new(0),
                     bytes: AtomicU64::new(0),
                     failures: AtomicU64::new(0),
+                    answers: std::sync::Mutex::default(),
                 }),
                 rt,
                 ahead: std::sync::Mutex::new(ReadAhead::new(opts.max_requests)),
@@ -323,6 +330,7 @@ impl Conn {
     /// One ranged GET of the pinned version into `buf`; an answer counts
     /// as a request and its bytes.
     async fn get(&self, offset: u64, buf: &mut [u8]) -> io::Result<()> {
+        let asked = Instant::now();
         let end = offset + buf.len() as u64;
         let opts = GetOptions {
             range: Some(GetRange::Bounded(offset..end)),
@@ -375,6 +383,15 @@ impl Conn {
             ));
         }
         buf.copy_from_slice(&bytes);
+        let mut answers = self.answers.lock().unwrap_or_else(|e| e.into_inner());
+        if answers.len() == ANSWERS_KEPT {
+            answers.pop_front();
+        }
+        answers.push_back(Response {
+            bytes: buf.len() as u64,
+            took: asked.elapsed(),
+        });
+        drop(answers);
         self.requests.fetch_add(1, Ordering::Relaxed);
         self.bytes.fetch_add(buf.len() as u64, Ordering::Relaxed);
         Ok(())
@@ -418,6 +435,20 @@ impl ByteSource for RemoteSource {
 
     fn is_ready(&self, offset: u64, len: u64) -> bool {
         self.ahead().is_ready(offset, len, JoinHandle::is_finished)
+    }
+
+    fn times_requests(&self) -> bool {
+        true
+    }
+
+    fn take_responses(&self, out: &mut Vec<Response>) {
+        let mut answers = self
+            .inner
+            .conn
+            .answers
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        out.extend(answers.drain(..));
     }
 
     fn hint(&self, ranges: &[(u64, u64)]) {

@@ -109,3 +109,78 @@ fn a_share_under_two_pages_reads_by_rep() {
     assert_eq!(total(&frames, |f| u64::from(f.loader.page_hits)), 0);
     assert!(frames.iter().all(|f| f.loader.page_bytes == 0));
 }
+
+/// A network-like source: every read is a copy (its answer came ahead of
+/// it), while the answers it reports took a round trip and a transfer;
+/// `times` says whether it reports them.
+struct AnsweredAhead {
+    inner: Arc<dyn ByteSource>,
+    times: bool,
+    answers: std::sync::Mutex<Vec<crate::io::Response>>,
+}
+
+impl ByteSource for AnsweredAhead {
+    fn len(&self) -> u64 {
+        self.inner.len()
+    }
+
+    fn read_at(&self, offset: u64, buf: &mut [u8]) -> std::io::Result<()> {
+        // 10 ms a round trip, 30 MB/s.
+        let took = Duration::from_millis(10) + Duration::from_secs_f64(buf.len() as f64 / 30e6);
+        self.answers.lock().unwrap().push(crate::io::Response {
+            bytes: buf.len() as u64,
+            took,
+        });
+        self.inner.read_at(offset, buf)
+    }
+
+    fn is_ready(&self, _offset: u64, _len: u64) -> bool {
+        true
+    }
+
+    fn times_requests(&self) -> bool {
+        self.times
+    }
+
+    fn take_responses(&self, out: &mut Vec<crate::io::Response>) {
+        out.append(&mut self.answers.lock().unwrap());
+    }
+}
+
+#[test]
+fn pages_turn_on_from_the_answers_round_trips_when_reads_take_no_time() {
+    let budget = budget();
+    let pages = |times: bool| {
+        let (skel, mem) = wide_compressed(64);
+        let clock = Arc::new(crate::clock::ManualClock::new());
+        // A read is a copy: 0.5 µs and 4 GB/s.
+        let copy = clocked(&mem, Duration::from_nanos(500), 4e9, &clock);
+        let src = Arc::new(AnsweredAhead {
+            inner: copy,
+            times,
+            answers: Default::default(),
+        });
+        let p = RuntimeParams {
+            coalesce_max_gap: 0,
+            page_bytes: 4096,
+            block_bytes: 16 << 10,
+            ..params(Mode::NoPre, budget)
+        };
+        let mut w = Walkthrough::start_with_clock(skel, src, p, clock).unwrap();
+        let frames = run_path(&mut w, &poses(), &mut NoneRenderer::new(0.0), 0.0).unwrap();
+        drop(w);
+        check_frames(&frames, budget);
+        total(&frames, |f| u64::from(f.loader.page_hits))
+    };
+    // Learnt from the reads, a request costs a copy: pages go off once a
+    // transfer rate is seen (before it, P_I probes with reads through gaps
+    // of up to 64 KiB, which pages stand in for).
+    let from_reads = pages(false);
+    // Learnt from the answers, a round trip is worth 300 KB: pages stay on.
+    let from_answers = pages(true);
+    eprintln!("page hits: {from_reads} learnt from reads, {from_answers} from answers");
+    assert!(
+        from_answers > 5 * from_reads.max(1),
+        "page hits: {from_reads} learnt from reads, {from_answers} from answers"
+    );
+}

@@ -518,3 +518,47 @@ fn requests_in_flight_serve_the_walk_as_one_at_a_time_does_within_the_budget() {
         }
     }
 }
+
+#[test]
+fn a_proxy_link_of_a_given_rate_is_shared_by_the_answers_and_timed_by_the_source() {
+    let Some((_dir, _local, nginx, _url)) = served_plant("remote::link_rate") else {
+        return;
+    };
+    // 10 ms a request, 8 Mbit/s (1 MB/s) shared by all connections.
+    let proxy = FaultProxy::start_link(0, nginx.port, Duration::from_millis(10), Some(1e6));
+    let src = RemoteSource::open(
+        &format!("{}/plant.hlod", proxy.base),
+        &RemoteOptions::default(),
+    )
+    .unwrap();
+    assert!(src.times_requests());
+    let n = (src.len() / 4).min(300_000) as usize;
+    let t = Instant::now();
+    std::thread::scope(|s| {
+        for k in 0..2u64 {
+            let src = &src;
+            s.spawn(move || {
+                let mut buf = vec![0u8; n];
+                src.read_at(k * n as u64, &mut buf).unwrap();
+            });
+        }
+    });
+    // Two answers through one link: their bytes' time at the rate, at
+    // least (the round trips overlap).
+    let least = 2.0 * n as f64 / 1e6;
+    let took = t.elapsed().as_secs_f64();
+    assert!(took >= least * 0.95, "{took} s for {} bytes", 2 * n);
+    let mut answers = Vec::new();
+    src.take_responses(&mut answers);
+    assert_eq!(answers.len(), 2, "{answers:?}");
+    for a in &answers {
+        assert_eq!(a.bytes, n as u64);
+        assert!(
+            a.took.as_secs_f64() >= 0.010 + n as f64 / 1e6 * 0.95,
+            "{a:?}"
+        );
+    }
+    let mut again = Vec::new();
+    src.take_responses(&mut again);
+    assert!(again.is_empty(), "taken once");
+}

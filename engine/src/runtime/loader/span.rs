@@ -5,7 +5,11 @@
 //! The break-even gap is learnt from P_I's own reads ([`IoCosts`]): reads
 //! that continue where the previous one ended give the time per byte, the
 //! others the seek time: seek time × transfer rate, so hundreds of KB on a
-//! seek-bound disk, tens on an SSD and nothing on a warm page cache.
+//! seek-bound disk, tens on an SSD and nothing on a warm page cache. From a
+//! source that times its own requests (a network's, whose answers may
+//! arrive before P_I reads them) the same costs are learnt from the answers
+//! instead: the round trip takes the seek's place, and every request pays
+//! it ([`IoCosts::observe_response`]).
 //!
 //! Also here: the timing checks that decide whether a prefetch read starts
 //! before the next fetch command, preemption, and the [`Partial`] read that
@@ -34,6 +38,12 @@ pub(super) struct IoCosts {
     pub(super) seek_max_s: f64,
     /// Where P_I's last read ended.
     last_end: Option<u64>,
+    /// Learnt from the source's answers ([`IoCosts::observe_response`]):
+    /// every read that is not answered already is a request and pays the
+    /// round trip (`seek_s`), whether or not it goes on from the last read.
+    by_responses: bool,
+    /// The answers taken from the source, before they are learnt from.
+    answers: Vec<crate::io::Response>,
 }
 
 /// Decayed sums over the reads that do not seek — count, bytes, seconds,
@@ -66,19 +76,25 @@ impl SeqFit {
     /// reads are too alike in size to tell them apart, or the fit is not
     /// physical).
     fn fit(&self) -> (f64, f64) {
-        let [c, n, t, nn, nt] = self.sums;
+        let [_, n, t, _, _] = self.sums;
         if n <= 0.0 {
             return (0.0, 0.0);
         }
+        self.line().unwrap_or((0.0, t / n))
+    }
+
+    /// The fitted line, when the reads tell its two terms apart.
+    fn line(&self) -> Option<(f64, f64)> {
+        let [c, n, t, nn, nt] = self.sums;
         let var = c * nn - n * n;
-        if c >= 4.0 && var > 1e-3 * c * nn {
+        if c >= 4.0 && n > 0.0 && var > 1e-3 * c * nn {
             let b = (c * nt - n * t) / var;
             let a = (t - b * n) / c;
             if b > 0.0 && a >= 0.0 && b.is_finite() && a.is_finite() {
-                return (a, b);
+                return Some((a, b));
             }
         }
-        (0.0, t / n)
+        None
     }
 }
 
@@ -115,6 +131,59 @@ impl IoCosts {
         self.last_end = Some(offset + bytes as u64);
     }
 
+    /// Nothing learnt yet, for reads of `source`: from the source's answers
+    /// when it times its requests ([`crate::ByteSource::times_requests`]),
+    /// and P_I's own reads then only move [`last_end`](Self::last_end);
+    /// else from P_I's reads.
+    pub(super) fn for_source(source: &dyn crate::ByteSource) -> Self {
+        Self {
+            by_responses: source.times_requests(),
+            ..Self::default()
+        }
+    }
+
+    /// Whether the costs come from the source's answers.
+    pub(super) fn learns_from_responses(&self) -> bool {
+        self.by_responses
+    }
+
+    /// Learns from one answer of `bytes` that took `took` from the request
+    /// to its last byte: the line `round trip + bytes / rate` fitted to
+    /// the answers ([`SeqFit`]) gives the round trip as the seek and the
+    /// rate as the transfer; a copy of an answer already here costs nothing
+    /// (`overhead_s` 0). Answers that shared the link with others in flight
+    /// took longer per byte: the rate learnt is a request's share of it.
+    pub(super) fn observe_response(&mut self, bytes: u64, took: Duration) {
+        let t = took.as_secs_f64();
+        self.first_block_s = t.max(self.first_block_s * 0.995);
+        self.seq.observe(bytes as f64, t);
+        // Answers too alike in size to tell the round trip from the rate
+        // (all of one page's size) keep the line learnt before.
+        let Some((a, b)) = self.seq.line() else {
+            return;
+        };
+        (self.seek_s, self.per_byte_s, self.overhead_s) = (a, b, 0.0);
+        // The slowest round trip lately (an answer less its transfer): the
+        // estimate of a request's first block, as the seek's on a disk.
+        let rtt = (t - bytes as f64 * b).max(a);
+        self.seek_max_s = rtt.max(self.seek_max_s * 0.95);
+    }
+
+    /// Learns from the answers `source` received since the last call.
+    pub(super) fn learn_from(&mut self, source: &dyn crate::ByteSource) {
+        let mut answers = std::mem::take(&mut self.answers);
+        source.take_responses(&mut answers);
+        for r in answers.drain(..) {
+            self.observe_response(r.bytes, r.took);
+        }
+        self.answers = answers;
+    }
+
+    /// P_I read up to `end` (costs learnt from answers, not from this read).
+    pub(super) fn moved_to(&mut self, end: u64) {
+        self.last_end = Some(end);
+    }
+
     /// How long the first block (up to `block` bytes) of a read of `bytes`
     /// at `offset` is expected to take: a seek unless it goes on from the
     /// last read, and the block's transfer. Until both costs are known, the
@@ -123,7 +192,7 @@ impl IoCosts {
         if self.seek_max_s <= 0.0 || self.per_byte_s <= 0.0 {
             return self.first_block_s;
         }
-        let seek = if self.last_end == Some(offset) {
+        let seek = if self.last_end == Some(offset) && !self.by_responses {
             0.0
         } else {
             self.seek_max_s
@@ -248,7 +317,12 @@ impl Loader {
                 self.stats.prefetch_seeks += seek;
             }
         }
-        self.costs.observe(offset, n, took);
+        if self.costs.learns_from_responses() {
+            self.costs.moved_to(offset + n as u64);
+            self.costs.learn_from(&*self.source);
+        } else {
+            self.costs.observe(offset, n, took);
+        }
     }
 
     /// The longest gap P_I reads through now (64 KiB until a transfer rate
@@ -532,5 +606,49 @@ mod tests {
         // Until costs are known: the slowest seeking read seen.
         let fresh = IoCosts::default();
         assert_eq!(fresh.first_block_estimate(0, 100, 65_536), 0.0);
+    }
+
+    #[test]
+    fn learns_a_round_trip_and_a_rate_from_answers() {
+        let net = crate::MemSource::new(Vec::new());
+        assert!(!IoCosts::for_source(&net).learns_from_responses());
+        let mut c = IoCosts {
+            by_responses: true,
+            ..IoCosts::default()
+        };
+        // 50 ms a round trip, 12.5 MB/s (100 Mbit/s), answers of 1–128 KiB.
+        let took = |n: u64| Duration::from_secs_f64(0.050 + n as f64 / 12.5e6);
+        for i in 0..100u64 {
+            let n = [1_000u64, 4_096, 20_000, 131_072][i as usize % 4];
+            c.observe_response(n, took(n));
+        }
+        assert!((c.seek_s - 0.050).abs() < 1e-4, "{}", c.seek_s);
+        assert!((c.per_byte_s * 12.5e6 - 1.0).abs() < 1e-3);
+        // A request is worth 625 KB of transfer: pages and wide ranges.
+        let r = c.request_bytes();
+        assert!((620_000..630_000).contains(&r), "{r}");
+        // Every read not answered yet pays the round trip, whether or not it
+        // goes on from the last one.
+        c.moved_to(4096);
+        let est = c.first_block_estimate(4096, 4096, 65_536);
+        assert!(
+            (est - 1.03 * (0.050 + 4096.0 / 12.5e6)).abs() < 1e-3,
+            "{est}"
+        );
+        // Answers all of one size cannot tell the two apart: nothing is
+        // learnt but the slowest answer, the estimate of every read.
+        let mut one = IoCosts {
+            by_responses: true,
+            ..IoCosts::default()
+        };
+        for _ in 0..50 {
+            one.observe_response(131_072, took(131_072));
+        }
+        assert_eq!(
+            (one.seek_s, one.per_byte_s, one.request_bytes()),
+            (0.0, 0.0, 0)
+        );
+        let slowest = took(131_072).as_secs_f64();
+        assert_eq!(one.first_block_estimate(0, 4096, 65_536), slowest);
     }
 }
