@@ -3,6 +3,7 @@
 //! Everything that reads a scene goes through [`ByteSource::read_at`], so tests can
 //! use [`MemSource`] and the runtime can wrap a source in a throttled disk model.
 
+use std::collections::VecDeque;
 use std::fs::File;
 use std::io;
 use std::path::Path;
@@ -16,6 +17,45 @@ use std::time::Duration;
 pub struct Response {
     pub bytes: u64,
     pub took: Duration,
+}
+
+/// The newest answers of a source that times its requests, numbered in the
+/// order they came: each reader ([`ByteSource::responses_since`]) keeps the
+/// number of the last one it saw, so that a new walk on the same source
+/// starts from the answers before it (the skeleton's, the last walk's).
+#[derive(Clone, Debug)]
+pub struct AnswerLog {
+    next: u64,
+    kept: VecDeque<Response>,
+    cap: usize,
+}
+
+impl AnswerLog {
+    /// Keeps the newest `cap` answers.
+    pub fn new(cap: usize) -> Self {
+        Self {
+            next: 0,
+            kept: VecDeque::new(),
+            cap: cap.max(1),
+        }
+    }
+
+    pub fn record(&mut self, r: Response) {
+        if self.kept.len() == self.cap {
+            self.kept.pop_front();
+        }
+        self.kept.push_back(r);
+        self.next += 1;
+    }
+
+    /// Appends the answers kept that came after number `*seen` to `out`,
+    /// oldest first, and moves `*seen` past the newest.
+    pub fn since(&self, seen: &mut u64, out: &mut Vec<Response>) {
+        let first = self.next - self.kept.len() as u64;
+        let from = (*seen).clamp(first, self.next);
+        out.extend(self.kept.iter().skip((from - first) as usize));
+        *seen = self.next;
+    }
 }
 
 /// A random-access, read-only byte source (a file, a buffer, a disk model).
@@ -63,7 +103,7 @@ pub trait ByteSource: Send + Sync {
 
     /// Whether this source times its own requests (a network's, whose
     /// answers may come before they are read): P_I then learns what a
-    /// request costs from [`take_responses`](Self::take_responses) — a
+    /// request costs from [`responses_since`](Self::responses_since) — a
     /// round trip and a rate — rather than from how long its reads take,
     /// since a read served from an answer already here takes no time.
     /// `false`, the default: a read is a request (a file, a disk model).
@@ -71,9 +111,10 @@ pub trait ByteSource: Send + Sync {
         false
     }
 
-    /// Appends the answers received since the last call to `out`, oldest
-    /// first (a source keeps a bounded number).
-    fn take_responses(&self, _out: &mut Vec<Response>) {}
+    /// Appends the answers after number `*seen` to `out`, oldest first, and
+    /// moves `*seen` past them (a source keeps a bounded number:
+    /// [`AnswerLog`]; 0 gives all it kept).
+    fn responses_since(&self, _seen: &mut u64, _out: &mut Vec<Response>) {}
 }
 
 /// A shared source is a source (a walk and a reader of the skeleton may
@@ -107,8 +148,8 @@ impl<T: ByteSource + ?Sized> ByteSource for Arc<T> {
         (**self).times_requests()
     }
 
-    fn take_responses(&self, out: &mut Vec<Response>) {
-        (**self).take_responses(out);
+    fn responses_since(&self, seen: &mut u64, out: &mut Vec<Response>) {
+        (**self).responses_since(seen, out);
     }
 }
 
@@ -308,5 +349,32 @@ mod tests {
         assert!(w.read_at(11, &mut buf).is_err());
         assert!(WindowSource::new(inner.clone(), 20, 16, Arc::from(vec![])).is_err());
         assert!(WindowSource::new(inner, 0, 2, Arc::from(vec![0u8; 3])).is_err());
+    }
+
+    #[test]
+    fn an_answer_log_keeps_the_newest_and_each_reader_its_place() {
+        let a = |n: u64| Response {
+            bytes: n,
+            took: Duration::from_millis(n),
+        };
+        let mut log = AnswerLog::new(3);
+        let (mut seen, mut out) = (0u64, Vec::new());
+        log.since(&mut seen, &mut out);
+        assert!(out.is_empty());
+        for n in 1..=5 {
+            log.record(a(n));
+        }
+        // The newest three; older ones are gone.
+        log.since(&mut seen, &mut out);
+        assert_eq!(out, vec![a(3), a(4), a(5)]);
+        assert_eq!(seen, 5);
+        log.record(a(6));
+        out.clear();
+        log.since(&mut seen, &mut out);
+        assert_eq!(out, vec![a(6)]);
+        // A new reader starts from all that is kept.
+        out.clear();
+        log.since(&mut 0, &mut out);
+        assert_eq!(out, vec![a(4), a(5), a(6)]);
     }
 }

@@ -88,5 +88,5 @@ pub use format::{
     FileHeader, FormatError, NodeRecord, PackedVertex, RepHeader, RepKind, RepMesh, RepRecord,
     SceneFile, SceneMeta, SceneWriter,
 };
-pub use io::{ByteSource, FileSource, MemSource, Response};
+pub use io::{AnswerLog, ByteSource, FileSource, MemSource, Response};
 pub use skeleton::{RepId, Skeleton, ValidationError};

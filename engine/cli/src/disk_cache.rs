@@ -20,7 +20,6 @@
 //! oldest files first). Two processes sharing a folder keep their own count
 //! and may together exceed it until either starts again.
 
-use std::collections::VecDeque;
 use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -170,8 +169,6 @@ pub struct CachedSource {
     hit: Arc<AtomicU64>,
     fetched: Arc<AtomicU64>,
     damaged: Arc<AtomicU64>,
-    /// Reads served wholly from the cache, as answers (the newest 1,024).
-    local: Arc<Mutex<VecDeque<Response>>>,
 }
 
 impl CachedSource {
@@ -192,7 +189,6 @@ impl CachedSource {
             hit: Arc::default(),
             fetched: Arc::default(),
             damaged: Arc::default(),
-            local: Arc::default(),
         })
     }
 
@@ -252,50 +248,42 @@ impl ByteSource for CachedSource {
         let asked = std::time::Instant::now();
         let end = offset + buf.len() as u64;
         let (first, last) = (offset / BLOCK, (end - 1) / BLOCK);
-        let mut blocks: Vec<Option<Vec<u8>>> = (first..=last).map(|i| self.cached(i)).collect();
-        let was_cached: Vec<bool> = blocks.iter().map(Option::is_some).collect();
-        // Each run of missing blocks in one ranged request.
-        let mut k = 0;
-        while k < blocks.len() {
-            if blocks[k].is_some() {
-                k += 1;
+        // Block by block into `buf`, a run of missing blocks in one ranged
+        // request: at most one cached block or one run is held beside `buf`.
+        let copy = |buf: &mut [u8], start: u64, bytes: &[u8]| {
+            let lo = offset.max(start);
+            let hi = end.min(start + bytes.len() as u64);
+            buf[(lo - offset) as usize..(hi - offset) as usize]
+                .copy_from_slice(&bytes[(lo - start) as usize..(hi - start) as usize]);
+            hi - lo
+        };
+        let (mut hit, mut all_cached) = (0u64, true);
+        let mut i = first;
+        while i <= last {
+            if let Some(block) = self.cached(i) {
+                hit += copy(buf, i * BLOCK, &block);
+                i += 1;
                 continue;
             }
-            let mut j = k;
-            while j + 1 < blocks.len() && blocks[j + 1].is_none() {
+            all_cached = false;
+            let mut j = i;
+            while j < last && !self.block_path(j + 1).exists() {
                 j += 1;
             }
-            let (a, b) = (first + k as u64, first + j as u64);
-            let from = a * BLOCK;
-            let to = ((b + 1) * BLOCK).min(self.len());
+            let from = i * BLOCK;
+            let to = ((j + 1) * BLOCK).min(self.len());
             let mut got = vec![0u8; (to - from) as usize];
             self.remote.read_at(from, &mut got)?;
             self.fetched.fetch_add(got.len() as u64, Ordering::Relaxed);
             for (n, chunk) in got.chunks(BLOCK as usize).enumerate() {
-                self.cache.store(&self.block_path(a + n as u64), chunk);
-                blocks[k + n] = Some(chunk.to_vec());
+                self.cache.store(&self.block_path(i + n as u64), chunk);
             }
-            k = j + 1;
-        }
-        let mut hit = 0u64;
-        for (n, block) in blocks.iter().enumerate() {
-            let block = block.as_ref().expect("every block cached or fetched");
-            let start = (first + n as u64) * BLOCK;
-            let lo = offset.max(start);
-            let hi = end.min(start + block.len() as u64);
-            buf[(lo - offset) as usize..(hi - offset) as usize]
-                .copy_from_slice(&block[(lo - start) as usize..(hi - start) as usize]);
-            if was_cached[n] {
-                hit += hi - lo;
-            }
+            copy(buf, from, &got);
+            i = j + 1;
         }
         self.hit.fetch_add(hit, Ordering::Relaxed);
-        if was_cached.iter().all(|&c| c) {
-            let mut local = self.local.lock().unwrap_or_else(|e| e.into_inner());
-            if local.len() == 1024 {
-                local.pop_front();
-            }
-            local.push_back(Response {
+        if all_cached {
+            self.remote.record_answer(Response {
                 bytes: buf.len() as u64,
                 took: asked.elapsed(),
             });
@@ -313,10 +301,8 @@ impl ByteSource for CachedSource {
 
     /// The server's answers, and the reads served wholly from the cache as
     /// answers of their own (what a read costs here, mostly a cache's).
-    fn take_responses(&self, out: &mut Vec<Response>) {
-        self.remote.take_responses(out);
-        let mut local = self.local.lock().unwrap_or_else(|e| e.into_inner());
-        out.extend(local.drain(..));
+    fn responses_since(&self, seen: &mut u64, out: &mut Vec<Response>) {
+        self.remote.responses_since(seen, out);
     }
 
     fn set_read_ahead(&self, bytes: u64) {

@@ -21,7 +21,6 @@
 //! with a user name, password or query string is refused, so that no secret
 //! is ever given on a command line or written to a log.
 
-use std::collections::VecDeque;
 use std::io;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -35,7 +34,8 @@ use object_store::{
     ObjectStoreExt, RetryConfig,
 };
 
-use engine::io::{ByteSource, Response};
+use engine::io::{AnswerLog, ByteSource, Response};
+use futures_util::StreamExt;
 use tokio::task::JoinHandle;
 
 use crate::read_ahead::{Lookup, ReadAhead};
@@ -84,7 +84,7 @@ impl Default for RemoteOptions {
             max_backoff: Duration::from_secs(2),
             retry_timeout: Duration::from_secs(20),
             max_requests: crate::scene_handle::DEFAULT_REQUESTS,
-            read_ahead_bytes: 4 << 20,
+            read_ahead_bytes: crate::scene_handle::DEFAULT_READ_AHEAD,
         }
     }
 }
@@ -168,8 +168,8 @@ struct Conn {
     requests: AtomicU64,
     bytes: AtomicU64,
     failures: AtomicU64,
-    /// The answers not yet taken by P_I (the newest [`ANSWERS_KEPT`]).
-    answers: std::sync::Mutex<VecDeque<Response>>,
+    /// The newest [`ANSWERS_KEPT`] answers, for P_I to learn from.
+    answers: std::sync::Mutex<AnswerLog>,
 }
 
 /// Answers kept for P_I to learn from; older ones are dropped.
@@ -221,7 +221,7 @@ impl RemoteSource {
                     requests: AtomicU64::new(0),
                     bytes: AtomicU64::new(0),
                     failures: AtomicU64::new(0),
-                    answers: std::sync::Mutex::default(),
+                    answers: std::sync::Mutex::new(AnswerLog::new(ANSWERS_KEPT)),
                 }),
                 rt,
                 ahead: std::sync::Mutex::new(ReadAhead::new(opts.max_requests)),
@@ -276,6 +276,12 @@ impl RemoteSource {
         }
     }
 
+    /// Logs an answer given without a request (a read the disk cache
+    /// served), for P_I to learn from beside the server's.
+    pub(crate) fn record_answer(&self, r: Response) {
+        self.inner.conn.record(r);
+    }
+
     /// A read inside a range requested ahead: `true` when served from it.
     fn read_from_ahead(&self, offset: u64, buf: &mut [u8]) -> bool {
         let looked = self.ahead().lookup(offset, buf);
@@ -299,6 +305,11 @@ impl RemoteSource {
 }
 
 impl Conn {
+    fn record(&self, r: Response) {
+        let mut answers = self.answers.lock().unwrap_or_else(|e| e.into_inner());
+        answers.record(r);
+    }
+
     /// The version pinned at open: the ETag, else the Last-Modified time.
     fn version(&self) -> String {
         match &self.meta.e_tag {
@@ -368,30 +379,37 @@ impl Conn {
                 self.url, res.range
             )));
         }
-        let bytes = res
-            .bytes()
-            .await
-            .map_err(|e| io::Error::other(format!("{}: bytes {offset}..{end}: {e}", self.url)))?;
-        if bytes.len() != buf.len() {
+        // The body goes into `buf` as it arrives: no second copy of the
+        // range is held (only the chunk being copied), so what a request
+        // holds is what the footprint counts for it.
+        let mut body = res.into_stream();
+        let mut got = 0usize;
+        while let Some(chunk) = body.next().await {
+            let chunk = chunk.map_err(|e| {
+                io::Error::other(format!("{}: bytes {offset}..{end}: {e}", self.url))
+            })?;
+            let Some(to) = buf.get_mut(got..got + chunk.len()) else {
+                return Err(io::Error::other(format!(
+                    "{}: bytes {offset}..{end}: the answer is longer than asked",
+                    self.url
+                )));
+            };
+            to.copy_from_slice(&chunk);
+            got += chunk.len();
+        }
+        if got != buf.len() {
             return Err(io::Error::new(
                 io::ErrorKind::UnexpectedEof,
                 format!(
-                    "{}: bytes {offset}..{end}: a short answer of {} bytes",
-                    self.url,
-                    bytes.len()
+                    "{}: bytes {offset}..{end}: a short answer of {got} bytes",
+                    self.url
                 ),
             ));
         }
-        buf.copy_from_slice(&bytes);
-        let mut answers = self.answers.lock().unwrap_or_else(|e| e.into_inner());
-        if answers.len() == ANSWERS_KEPT {
-            answers.pop_front();
-        }
-        answers.push_back(Response {
+        self.record(Response {
             bytes: buf.len() as u64,
             took: asked.elapsed(),
         });
-        drop(answers);
         self.requests.fetch_add(1, Ordering::Relaxed);
         self.bytes.fetch_add(buf.len() as u64, Ordering::Relaxed);
         Ok(())
@@ -441,14 +459,14 @@ impl ByteSource for RemoteSource {
         true
     }
 
-    fn take_responses(&self, out: &mut Vec<Response>) {
-        let mut answers = self
+    fn responses_since(&self, seen: &mut u64, out: &mut Vec<Response>) {
+        let answers = self
             .inner
             .conn
             .answers
             .lock()
             .unwrap_or_else(|e| e.into_inner());
-        out.extend(answers.drain(..));
+        answers.since(seen, out);
     }
 
     fn hint(&self, ranges: &[(u64, u64)]) {

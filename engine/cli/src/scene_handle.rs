@@ -16,6 +16,27 @@ use engine::io::{ByteSource, FileSource};
 /// (CesiumJS allows 18 per server, 3DTilesRendererJS 25).
 pub const DEFAULT_REQUESTS: usize = 16;
 
+/// The bytes those requests may hold at most, unless told otherwise (the
+/// runtime gives them at most an eighth of P_I's share of the footprint).
+pub const DEFAULT_READ_AHEAD: u64 = 4 << 20;
+
+/// How a remote scene is read ahead: at most `max` requests in flight
+/// (1: one at a time), holding at most `ahead_bytes`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Requests {
+    pub max: usize,
+    pub ahead_bytes: u64,
+}
+
+impl Default for Requests {
+    fn default() -> Self {
+        Self {
+            max: DEFAULT_REQUESTS,
+            ahead_bytes: DEFAULT_READ_AHEAD,
+        }
+    }
+}
+
 /// A scene opened once, from which each walk takes its own source.
 #[derive(Debug)]
 pub enum SceneHandle {
@@ -82,20 +103,20 @@ impl SceneHandle {
     /// [`Self::open`], a remote scene read through the disk cache `cache`
     /// (ignored for a local file).
     pub fn open_cached(path: &Path, cache: Option<&DiskCacheSpec>) -> io::Result<Self> {
-        Self::open_with(path, cache, DEFAULT_REQUESTS)
+        Self::open_with(path, cache, Requests::default())
     }
 
-    /// [`Self::open_cached`] with at most `max_requests` requests in flight
-    /// for a remote scene (1: one at a time).
+    /// [`Self::open_cached`] with `requests` in flight for a remote scene.
     pub fn open_with(
         path: &Path,
         cache: Option<&DiskCacheSpec>,
-        max_requests: usize,
+        requests: Requests,
     ) -> io::Result<Self> {
         #[cfg(feature = "remote")]
         if let Some(url) = path.to_str().filter(|s| crate::remote::is_remote(s)) {
             let opts = crate::remote::RemoteOptions {
-                max_requests,
+                max_requests: requests.max,
+                read_ahead_bytes: requests.ahead_bytes,
                 ..crate::remote::RemoteOptions::default()
             };
             let remote = crate::remote::RemoteSource::open(url, &opts).map_err(io::Error::other)?;
@@ -111,7 +132,7 @@ impl SceneHandle {
             };
             return Ok(Self::Remote(remote, cached));
         }
-        let _ = (cache, max_requests);
+        let _ = (cache, requests);
         engine::infile::open(path).map(Self::File)
     }
 

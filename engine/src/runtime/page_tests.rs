@@ -116,7 +116,7 @@ fn a_share_under_two_pages_reads_by_rep() {
 struct AnsweredAhead {
     inner: Arc<dyn ByteSource>,
     times: bool,
-    answers: std::sync::Mutex<Vec<crate::io::Response>>,
+    answers: std::sync::Mutex<crate::io::AnswerLog>,
 }
 
 impl ByteSource for AnsweredAhead {
@@ -127,7 +127,7 @@ impl ByteSource for AnsweredAhead {
     fn read_at(&self, offset: u64, buf: &mut [u8]) -> std::io::Result<()> {
         // 10 ms a round trip, 30 MB/s.
         let took = Duration::from_millis(10) + Duration::from_secs_f64(buf.len() as f64 / 30e6);
-        self.answers.lock().unwrap().push(crate::io::Response {
+        self.answers.lock().unwrap().record(crate::io::Response {
             bytes: buf.len() as u64,
             took,
         });
@@ -142,8 +142,8 @@ impl ByteSource for AnsweredAhead {
         self.times
     }
 
-    fn take_responses(&self, out: &mut Vec<crate::io::Response>) {
-        out.append(&mut self.answers.lock().unwrap());
+    fn responses_since(&self, seen: &mut u64, out: &mut Vec<crate::io::Response>) {
+        self.answers.lock().unwrap().since(seen, out);
     }
 }
 
@@ -158,7 +158,7 @@ fn pages_turn_on_from_the_answers_round_trips_when_reads_take_no_time() {
         let src = Arc::new(AnsweredAhead {
             inner: copy,
             times,
-            answers: Default::default(),
+            answers: std::sync::Mutex::new(crate::io::AnswerLog::new(64)),
         });
         let p = RuntimeParams {
             coalesce_max_gap: 0,

@@ -548,8 +548,8 @@ fn a_proxy_link_of_a_given_rate_is_shared_by_the_answers_and_timed_by_the_source
     let least = 2.0 * n as f64 / 1e6;
     let took = t.elapsed().as_secs_f64();
     assert!(took >= least * 0.95, "{took} s for {} bytes", 2 * n);
-    let mut answers = Vec::new();
-    src.take_responses(&mut answers);
+    let (mut answers, mut seen) = (Vec::new(), 0);
+    src.responses_since(&mut seen, &mut answers);
     assert_eq!(answers.len(), 2, "{answers:?}");
     for a in &answers {
         assert_eq!(a.bytes, n as u64);
@@ -559,6 +559,9 @@ fn a_proxy_link_of_a_given_rate_is_shared_by_the_answers_and_timed_by_the_source
         );
     }
     let mut again = Vec::new();
-    src.take_responses(&mut again);
-    assert!(again.is_empty(), "taken once");
+    src.responses_since(&mut seen, &mut again);
+    assert!(again.is_empty(), "seen once");
+    // A second reader starts from the answers kept.
+    src.responses_since(&mut 0, &mut again);
+    assert_eq!(again.len(), 2);
 }

@@ -42,7 +42,9 @@ pub(super) struct IoCosts {
     /// every read that is not answered already is a request and pays the
     /// round trip (`seek_s`), whether or not it goes on from the last read.
     by_responses: bool,
-    /// The answers taken from the source, before they are learnt from.
+    /// The number of the last of the source's answers learnt from, and
+    /// those taken before they are learnt from.
+    seen: u64,
     answers: Vec<crate::io::Response>,
 }
 
@@ -169,10 +171,11 @@ impl IoCosts {
         self.seek_max_s = rtt.max(self.seek_max_s * 0.95);
     }
 
-    /// Learns from the answers `source` received since the last call.
+    /// Learns from the answers `source` received since the last call (the
+    /// first call: from all it kept, which a new walk starts from).
     pub(super) fn learn_from(&mut self, source: &dyn crate::ByteSource) {
         let mut answers = std::mem::take(&mut self.answers);
-        source.take_responses(&mut answers);
+        source.responses_since(&mut self.seen, &mut answers);
         for r in answers.drain(..) {
             self.observe_response(r.bytes, r.took);
         }

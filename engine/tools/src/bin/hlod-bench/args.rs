@@ -75,6 +75,10 @@ pub struct Args {
     /// P_I does next (1: one at a time).
     #[arg(long, default_value_t = engine_cli::scene_handle::DEFAULT_REQUESTS, value_parser = in_range(1usize, 256))]
     pub requests: usize,
+    /// For a scene given by URL: the most bytes those requests may hold
+    /// (taken out of the footprint; at most an eighth of P_I's share).
+    #[arg(long, default_value = "4MiB")]
+    pub read_ahead: String,
     /// Frame pacing (0: as fast as possible).
     #[arg(long, default_value_t = 30.0, value_parser = zero_or_in(1.0f32, 1000.0))]
     pub fps: f32,

@@ -92,7 +92,11 @@ fn run(a: Args) -> Result<()> {
         }),
         None => None,
     };
-    let handle = SceneHandle::open_with(&a.scene, cache.as_ref(), a.requests)
+    let requests = engine_cli::scene_handle::Requests {
+        max: a.requests,
+        ahead_bytes: engine_cli::parse_disk_size("--read-ahead", &a.read_ahead)?,
+    };
+    let handle = SceneHandle::open_with(&a.scene, cache.as_ref(), requests)
         .with_context(|| scene_name.clone())?;
     let scene = SceneFile::from_source(handle.raw()?).with_context(|| scene_name.clone())?;
     let skel = Arc::new(scene.skeleton().clone());
