@@ -245,7 +245,6 @@ impl ByteSource for CachedSource {
         if buf.is_empty() {
             return Ok(());
         }
-        let asked = std::time::Instant::now();
         let end = offset + buf.len() as u64;
         let (first, last) = (offset / BLOCK, (end - 1) / BLOCK);
         // Block by block into `buf`, a run of missing blocks in one ranged
@@ -257,7 +256,7 @@ impl ByteSource for CachedSource {
                 .copy_from_slice(&bytes[(lo - start) as usize..(hi - start) as usize]);
             hi - lo
         };
-        let (mut hit, mut all_cached) = (0u64, true);
+        let mut hit = 0u64;
         let mut i = first;
         while i <= last {
             if let Some(block) = self.cached(i) {
@@ -265,7 +264,6 @@ impl ByteSource for CachedSource {
                 i += 1;
                 continue;
             }
-            all_cached = false;
             let mut j = i;
             while j < last && !self.block_path(j + 1).exists() {
                 j += 1;
@@ -282,12 +280,6 @@ impl ByteSource for CachedSource {
             i = j + 1;
         }
         self.hit.fetch_add(hit, Ordering::Relaxed);
-        if all_cached {
-            self.remote.record_answer(Response {
-                bytes: buf.len() as u64,
-                took: asked.elapsed(),
-            });
-        }
         Ok(())
     }
 
@@ -299,10 +291,21 @@ impl ByteSource for CachedSource {
         true
     }
 
-    /// The server's answers, and the reads served wholly from the cache as
-    /// answers of their own (what a read costs here, mostly a cache's).
+    /// The server's answers only: a read the cache serves whole is
+    /// [`is_ready`](ByteSource::is_ready) (a copy, whatever a request
+    /// costs), so what P_I learns stays what a request to the server costs.
     fn responses_since(&self, seen: &mut u64, out: &mut Vec<Response>) {
         self.remote.responses_since(seen, out);
+    }
+
+    /// Served at once: every block of the range is in the cache, or the
+    /// server's answer to a request started ahead is here.
+    fn is_ready(&self, offset: u64, len: u64) -> bool {
+        if len == 0 || offset.saturating_add(len) > self.len() {
+            return false;
+        }
+        let (first, last) = (offset / BLOCK, (offset + len - 1) / BLOCK);
+        (first..=last).all(|i| self.block_path(i).exists()) || self.remote.is_ready(offset, len)
     }
 
     fn set_read_ahead(&self, bytes: u64) {

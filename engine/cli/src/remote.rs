@@ -276,12 +276,6 @@ impl RemoteSource {
         }
     }
 
-    /// Logs an answer given without a request (a read the disk cache
-    /// served), for P_I to learn from beside the server's.
-    pub(crate) fn record_answer(&self, r: Response) {
-        self.inner.conn.record(r);
-    }
-
     /// A read inside a range requested ahead: `true` when served from it.
     fn read_from_ahead(&self, offset: u64, buf: &mut [u8]) -> bool {
         let looked = self.ahead().lookup(offset, buf);

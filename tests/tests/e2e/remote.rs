@@ -358,8 +358,21 @@ fn a_second_walk_reads_from_the_disk_cache_and_nothing_from_the_network() {
             frames.iter().map(|f| f.front_reps).collect::<Vec<_>>(),
         )
     };
+    // The root's rep: every walk reads it at start.
+    let root = skel.reps[skel.nodes[0].first_rep as usize];
+    let ready = || {
+        let h = SceneHandle::open_cached(Path::new(&url), Some(&spec)).unwrap();
+        h.source(None)
+            .unwrap()
+            .is_ready(root.offset, u64::from(root.len))
+    };
+    assert!(!ready(), "nothing cached yet: a read would be a request");
     let (first, fronts) = visit();
     assert!(first.requests > 0, "{first:?}");
+    assert!(
+        ready(),
+        "cached: a read costs a copy, whatever a request costs"
+    );
     let asked = gets();
     let (second, again) = visit();
     assert_eq!(second.requests, 0, "{second:?}");
