@@ -100,6 +100,8 @@ def main():
     )
     print("|---|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|")
     for kind_dir in sorted(p for p in root.iterdir() if p.is_dir()):
+        if not (kind_dir / "local" / "summary.md").exists():
+            continue  # not walked (yet)
         local = tables(kind_dir / "local" / "summary.md")[0]
         ic = next(m for m in local if m["mode"] == "incore")
         incore = (num(ic["median ms"]), num(ic["p99 ms"]))

@@ -80,6 +80,13 @@ pub trait ByteSource: Send + Sync {
         0
     }
 
+    /// How many requests it starts ahead at once, at most (1, the default,
+    /// for a source that starts none): P_I cuts what it hints into ranges
+    /// small enough that that many fit the bytes it may hold.
+    fn max_requests(&self) -> usize {
+        1
+    }
+
     /// Sets the bytes that reads started ahead may hold, in flight or done
     /// and not yet read: the runtime takes them out of the footprint
     /// ([`crate::runtime::Footprint`]). 0 turns reading ahead off.
@@ -134,6 +141,10 @@ impl<T: ByteSource + ?Sized> ByteSource for Arc<T> {
 
     fn set_read_ahead(&self, bytes: u64) {
         (**self).set_read_ahead(bytes);
+    }
+
+    fn max_requests(&self) -> usize {
+        (**self).max_requests()
     }
 
     fn hint(&self, ranges: &[(u64, u64)]) {

@@ -287,6 +287,10 @@ impl ByteSource for CachedSource {
         self.remote.read_ahead_max()
     }
 
+    fn max_requests(&self) -> usize {
+        self.remote.max_requests()
+    }
+
     fn times_requests(&self) -> bool {
         true
     }

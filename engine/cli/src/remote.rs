@@ -155,6 +155,7 @@ struct Inner {
     rt: tokio::runtime::Runtime,
     ahead: std::sync::Mutex<ReadAhead<JoinHandle<io::Result<Vec<u8>>>>>,
     read_ahead_max: u64,
+    max_requests: usize,
 }
 
 /// What a request needs (shared with the requests in flight, which must
@@ -225,6 +226,7 @@ impl RemoteSource {
                 }),
                 rt,
                 ahead: std::sync::Mutex::new(ReadAhead::new(opts.max_requests)),
+                max_requests: opts.max_requests.max(1),
                 read_ahead_max: if opts.max_requests > 1 {
                     opts.read_ahead_bytes
                 } else {
@@ -438,6 +440,10 @@ impl ByteSource for RemoteSource {
 
     fn read_ahead_max(&self) -> u64 {
         self.inner.read_ahead_max
+    }
+
+    fn max_requests(&self) -> usize {
+        self.inner.max_requests
     }
 
     fn set_read_ahead(&self, bytes: u64) {

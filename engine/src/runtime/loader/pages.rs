@@ -350,8 +350,11 @@ impl Loader {
             return;
         }
         let (p, gap) = (self.params.page_bytes, self.max_gap());
-        // Several ranges fit the share at once.
-        let longest = (self.fp.in_flight() / 4).max(p);
+        // As many ranges as the source keeps in flight fit the share at
+        // once. (A quarter of it each: with reads through gaps of up to 1
+        // MiB, four ranges held the share and the other reps of a Stage II
+        // went one round trip at a time, 3–17 s frames at RTT 50 ms.)
+        let longest = (self.fp.in_flight() / self.source.max_requests().max(1) as u64).max(p);
         let mut room = self.rep_room(Purpose::Demand).unwrap_or(u64::MAX);
         let mut ranges: Vec<(u64, u64)> = Vec::new();
         let add = |ranges: &mut Vec<(u64, u64)>, (a, b): (u64, u64)| match ranges.last_mut() {
