@@ -38,6 +38,14 @@ struct Live<H> {
     /// Not in the last hint: kept (a read may still use it) until its
     /// slot or bytes are wanted for a hinted range.
     stale: bool,
+    /// A read took bytes from it and its end is not read yet; once a later
+    /// read starts past its end, the reads (in file order) have left it
+    /// behind, and it gives its slot up after the stale ranges. (Kept as
+    /// long as not stale, a page hinted
+    /// whole and read rep by rep, its last rep not wanted, held a slot for
+    /// the rest of the hint: 16 such pages and every later read of a Stage
+    /// II was a request of its own, one round trip each.)
+    used: bool,
 }
 
 /// Counters of reading ahead.
@@ -63,6 +71,8 @@ pub struct ReadAhead<H> {
     queue: VecDeque<(u64, u64)>,
     live: Vec<Live<H>>,
     stats: AheadStats,
+    /// Where the latest read started.
+    at: u64,
 }
 
 impl<H> ReadAhead<H> {
@@ -75,6 +85,7 @@ impl<H> ReadAhead<H> {
             queue: VecDeque::new(),
             live: Vec::new(),
             stats: AheadStats::default(),
+            at: 0,
         }
     }
 
@@ -138,6 +149,7 @@ impl<H> ReadAhead<H> {
     /// A read of `buf.len()` bytes at `offset`: served from an answer
     /// already here, or the handle of the request to wait for.
     pub fn lookup(&mut self, offset: u64, buf: &mut [u8]) -> Lookup<H> {
+        self.at = offset;
         let end = offset + buf.len() as u64;
         let Some(i) = self
             .live
@@ -200,6 +212,7 @@ impl<H> ReadAhead<H> {
             self.live.remove(i);
         } else {
             self.live[i].state = State::Ready(bytes);
+            self.live[i].used = true;
         }
     }
 
@@ -215,10 +228,13 @@ impl<H> ReadAhead<H> {
         let mut cancel = Vec::new();
         while let Some(&(a, b)) = self.queue.front() {
             if self.live.len() >= self.max_requests || self.held() + (b - a) > self.cap {
-                let Some(i) = self
-                    .live
-                    .iter()
-                    .position(|l| l.stale && !matches!(l.state, State::Taken))
+                let at = self.at;
+                let free = |l: &Live<H>, passed: bool| {
+                    (l.stale || (passed && l.used && at >= l.end))
+                        && !matches!(l.state, State::Taken)
+                };
+                let Some(i) = (self.live.iter().position(|l| free(l, false)))
+                    .or_else(|| self.live.iter().position(|l| free(l, true)))
                 else {
                     break;
                 };
@@ -237,6 +253,7 @@ impl<H> ReadAhead<H> {
                 end: b,
                 state: State::Pending(start(a, b)),
                 stale: false,
+                used: false,
             });
             self.stats.started += 1;
         }

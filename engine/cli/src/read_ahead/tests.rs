@@ -121,3 +121,31 @@ fn a_failed_or_short_answer_sends_the_read_to_the_server() {
     );
     assert_eq!((ra.held(), ra.stats().hits), (0, 0));
 }
+
+#[test]
+fn a_range_the_reads_left_behind_gives_its_slot_up() {
+    // Two slots, pages hinted whole and read rep by rep: the first page's
+    // last rep is not read.
+    let mut ra = ReadAhead::new(2);
+    ra.set_cap(1000);
+    let mut log = Vec::new();
+    ra.hint(&[(0, 100), (100, 200), (200, 300)], starter(&mut log));
+    assert_eq!(log.len(), 2);
+    let mut b = [0u8; 10];
+    let Lookup::Wait { start, .. } = ra.lookup(10, &mut b) else {
+        panic!()
+    };
+    // Its first rep read, the page stays for the next block or rep of it.
+    ra.finish(start, Some(bytes(0, 100)), 10, &mut b, starter(&mut log));
+    assert_eq!(log.len(), 2, "not passed yet: no slot");
+    assert!(matches!(ra.lookup(40, &mut b), Lookup::Done));
+    // The next read is in the second page, past the first one's end: the
+    // first gives its slot to the third.
+    let Lookup::Wait { start, .. } = ra.lookup(150, &mut b) else {
+        panic!()
+    };
+    ra.finish(start, Some(bytes(100, 200)), 150, &mut b, starter(&mut log));
+    assert_eq!(&log[2..], [(200, 300)]);
+    assert_eq!(ra.stats().dropped_bytes, 100);
+    assert!(matches!(ra.lookup(60, &mut b), Lookup::Miss), "dropped");
+}
