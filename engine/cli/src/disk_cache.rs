@@ -110,6 +110,13 @@ impl DiskCache {
         }
     }
 
+    /// Whether block file `p` is in the index (no system call: P_I asks
+    /// this for every candidate it times). A block another process wrote
+    /// since this one opened the cache is not: it is fetched again.
+    fn holds(&self, p: &Path) -> bool {
+        self.lock().lru.contains(p)
+    }
+
     fn touch(&self, p: &Path) {
         let _ = self.lock().lru.get(p);
     }
@@ -210,6 +217,11 @@ impl CachedSource {
         self.dir.join(format!("{i}.blk"))
     }
 
+    /// Whether block `i` is cached (as far as this process knows).
+    fn holds(&self, i: u64) -> bool {
+        self.cache.holds(&self.block_path(i))
+    }
+
     fn block_len(&self, i: u64) -> usize {
         (self.remote.len() - i * BLOCK).min(BLOCK) as usize
     }
@@ -265,7 +277,7 @@ impl ByteSource for CachedSource {
                 continue;
             }
             let mut j = i;
-            while j < last && !self.block_path(j + 1).exists() {
+            while j < last && !self.holds(j + 1) {
                 j += 1;
             }
             let from = i * BLOCK;
@@ -309,7 +321,7 @@ impl ByteSource for CachedSource {
             return false;
         }
         let (first, last) = (offset / BLOCK, (offset + len - 1) / BLOCK);
-        (first..=last).all(|i| self.block_path(i).exists()) || self.remote.is_ready(offset, len)
+        (first..=last).all(|i| self.holds(i)) || self.remote.is_ready(offset, len)
     }
 
     fn set_read_ahead(&self, bytes: u64) {
@@ -329,7 +341,7 @@ impl ByteSource for CachedSource {
             }
             let mut run: Option<(u64, u64)> = None;
             for i in a / BLOCK..=(b - 1) / BLOCK {
-                if self.block_path(i).exists() {
+                if self.holds(i) {
                     runs.extend(run.take());
                 } else {
                     let end = ((i + 1) * BLOCK).min(len);

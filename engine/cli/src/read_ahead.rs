@@ -41,10 +41,10 @@ struct Live<H> {
     /// A read took bytes from it and its end is not read yet; once a later
     /// read starts past its end, the reads (in file order) have left it
     /// behind, and it gives its slot up after the stale ranges. (Kept as
-    /// long as not stale, a page hinted
-    /// whole and read rep by rep, its last rep not wanted, held a slot for
-    /// the rest of the hint: 16 such pages and every later read of a Stage
-    /// II was a request of its own, one round trip each.)
+    /// long as not stale, a page hinted whole and read rep by rep, its last
+    /// rep not wanted, held a slot for the rest of the hint: 16 such pages
+    /// and every later read of a Stage II was a request of its own, one
+    /// round trip each.)
     used: bool,
 }
 
