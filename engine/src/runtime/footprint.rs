@@ -18,8 +18,7 @@
 //! In core, everything is loaded at start and nothing is bounded: that is a
 //! variant of its own ([`Footprint::InCore`]), not a very large budget.
 
-use super::RuntimeError;
-use super::params::{Mode, RuntimeParams};
+use super::params::{Mode, RuntimeError, RuntimeParams};
 use super::resident::Purpose;
 
 /// What a walk may hold.

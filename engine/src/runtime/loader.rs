@@ -22,19 +22,21 @@ mod pages;
 mod plan;
 #[cfg(test)]
 mod plan_tests;
+mod reads;
 mod retry;
 mod span;
 mod sweep;
 
 use std::sync::Arc;
+use std::time::Instant;
 
 use crossbeam_channel::{Receiver, Sender, TryRecvError};
 
 use super::footprint::Footprint;
-use super::resident::{Purpose, ResidentSet};
-use super::{Cmd, Draw, Mode, Reply, RuntimeError, RuntimeParams};
+use super::params::{Mode, RuntimeError, RuntimeParams};
+use super::protocol::{Cmd, Draw, Reply};
+use super::resident::Purpose;
 use crate::camera::View;
-use crate::format::{check_rep_crc, expand_payload};
 use crate::front::FrontIndex;
 use crate::io::ByteSource;
 use crate::metrics::LoaderCounters;
@@ -45,72 +47,75 @@ use classify::Classifier;
 use inbox::{Inbox, READY_POLL};
 use late::LateReads;
 use misses::MissAccount;
-use outbox::Outbox;
 pub(super) use outbox::capacity as reply_capacity;
+use outbox::{Outbox, RendererGone};
 use pacing::Pacing;
-use pages::PageCache;
 use plan::Plan;
-use retry::Retry;
-use span::{FileOrder, IoCosts, Partial};
+use reads::{LoadError, ReadParams, Reads, Turn};
+use span::ReadQueue;
 use sweep::Sweep;
 
-/// P_R is gone (its receiver dropped): P_I stops.
-#[derive(Debug)]
-struct RendererGone;
-
-/// Why a rep was not loaded.
-enum LoadError {
-    /// The budget cannot make room without evicting reps that must stay.
-    NoRoom,
-    /// Read or checksum failure (logged once; the rep is not tried again).
-    Failed,
-    /// A new fetch command arrived during a prefetch read.
-    Preempted,
-}
-
-/// P_I: a command loop around the resident set and the read planners; it
-/// does the reads they ask for.
-pub(super) struct Loader {
-    skeleton: Arc<Skeleton>,
-    index: Arc<FrontIndex>,
-    source: Arc<dyn ByteSource>,
-    params: RuntimeParams,
-    /// P_I's side of the footprint, and its shares.
-    fp: Footprint,
-    /// P_R's commands, one taken early by a preemption check kept.
-    inbox: Inbox,
-    /// The replies to P_R, draws grouped.
-    out: Outbox,
-    /// Where P_I's timing comes from (the system's clock, or a test's).
-    clock: Arc<dyn crate::clock::Clock>,
-    /// The resident reps, their bytes, pins and the eviction rule.
-    res: ResidentSet,
-    failed: Vec<bool>,
-    /// When failed reps are tried again (a network or device error).
-    retry: Retry,
-    stats: LoaderCounters,
-    /// The planners: the binned candidates (CLASSIFY), the fronts ahead,
-    /// the sweep through small reps, and the late reads of this frame.
+/// The read planners: the binned candidates (CLASSIFY), the fronts ahead,
+/// the sweep through small reps, and the late reads of this frame.
+struct Planners {
     classes: Classifier,
     ahead: Lookahead,
     sweep: Sweep,
     late: LateReads,
+}
+
+/// P_I: a command loop around the reads ([`Reads`]: the resident set
+/// under the footprint, the source and the read costs) and the read
+/// planners; it decides what is read and when.
+pub(super) struct Loader {
+    skeleton: Arc<Skeleton>,
+    index: Arc<FrontIndex>,
+    params: RuntimeParams,
+    reads: Reads,
+    plans: Planners,
+    /// P_R's commands, one taken early by a preemption check kept.
+    inbox: Inbox,
+    /// The replies to P_R, draws grouped.
+    out: Outbox,
     /// The fetch commands' rhythm (when the next one is due).
     pacing: Pacing,
-    /// Learnt read costs (seek, transfer, break-even gap).
-    costs: IoCosts,
-    /// The reps in file order, for reads through gaps.
-    order: FileOrder,
-    /// Bytes of a gap being read through (discarded).
-    gap_buf: Vec<u8>,
-    /// A prefetch read preempted by a fetch command (its bytes reserved).
-    partial: Option<Partial>,
-    /// Stored bytes of whole pages read on a seek-bound disk.
-    pages: PageCache,
     misses: MissAccount,
     /// P_I has no time for another prefetch read before the next fetch
     /// command (the candidates stay for the frames after it).
     wait_fetch: bool,
+}
+
+/// What a read asks of the loop ([`Turn`]): the inbox, P_R's draws not
+/// yet started, the pacing and the planners' candidates.
+struct LoopTurn<'a> {
+    inbox: &'a mut Inbox,
+    out: &'a mut Outbox,
+    pacing: &'a Pacing,
+    plans: &'a Planners,
+}
+
+impl Turn for LoopTurn<'_> {
+    fn preempted(&mut self) -> bool {
+        self.inbox.preempted()
+    }
+
+    fn queued(&self, r: RepId, frame: u32) -> bool {
+        self.plans.classes.is_queued(r) || self.plans.late.is_late(r, frame)
+    }
+
+    fn is_late(&self, r: RepId, frame: u32) -> bool {
+        self.plans.late.is_late(r, frame)
+    }
+
+    fn is_recent(&self, r: RepId) -> bool {
+        self.plans.classes.is_recent(r)
+    }
+
+    /// Always while P_R has a group of draws it has not started (it draws
+    /// before it asks again), else as the pacing expects.
+    fn ends_in_time(&mut self, now: Instant, need_s: f64) -> bool {
+        self.out.p_r_busy() || self.pacing.ends_in_time(now, need_s)
+    }
 }
 
 impl Loader {
@@ -118,46 +123,51 @@ impl Loader {
         skeleton: Arc<Skeleton>,
         index: Arc<FrontIndex>,
         source: Arc<dyn ByteSource>,
-        pools: Arc<Vec<u64>>,
+        pools: &[Option<u64>],
         (params, fp): (RuntimeParams, Footprint),
         (cmds, replies): (Receiver<Cmd>, Sender<Reply>),
         clock: Arc<dyn crate::clock::Clock>,
     ) -> Self {
         let n = skeleton.reps.len();
-        let skeleton_reps_len: Vec<u64> = skeleton.reps.iter().map(|r| r.resident_len()).collect();
+        let bins = Bins::new(params.prefetch.bins, params.delta(), params.tolerance_px);
         Self {
-            classes: Classifier::new(
-                n,
-                Bins::new(params.prefetch.bins, params.delta(), params.tolerance_px),
-            ),
-            ahead: Lookahead::default(),
-            sweep: Sweep::default(),
-            late: LateReads::new(n),
+            plans: Planners {
+                classes: Classifier::new(n, bins),
+                ahead: Lookahead::default(),
+                sweep: Sweep::default(),
+                late: LateReads::new(n),
+            },
             pacing: Pacing::default(),
             misses: MissAccount::new(skeleton.nodes.len()),
-            order: FileOrder::new(&skeleton),
-            res: ResidentSet::new(
-                (0..n)
-                    .map(|r| footprint(&skeleton_reps_len, &pools, r))
-                    .collect(),
+            reads: Reads::new(
+                skeleton.clone(),
+                source,
+                pools,
+                (ReadParams::of(&params), fp),
+                clock,
             ),
-            failed: pools.iter().map(|&p| p == super::trees::UNUSABLE).collect(),
-            retry: Retry::default(),
             skeleton,
             index,
-            costs: IoCosts::for_source(&*source),
-            source,
-            pages: PageCache::new(params.page_bytes),
             params,
-            fp,
             inbox: Inbox::new(cmds),
             out: Outbox::new(replies),
-            clock,
-            stats: LoaderCounters::default(),
-            gap_buf: Vec::new(),
-            partial: None,
             wait_fetch: false,
         }
+    }
+
+    /// The reads, and what they ask of the loop while they run.
+    fn parts(&mut self) -> (&mut Reads, LoopTurn<'_>) {
+        let turn = LoopTurn {
+            inbox: &mut self.inbox,
+            out: &mut self.out,
+            pacing: &self.pacing,
+            plans: &self.plans,
+        };
+        (&mut self.reads, turn)
+    }
+
+    fn clock(&self) -> &dyn crate::clock::Clock {
+        self.reads.clock.as_ref()
     }
 
     /// The thread body: start-up, then commands until shutdown.
@@ -175,14 +185,15 @@ impl Loader {
                     Err(_) => continue,
                 }
             } else if !self.wait_fetch
-                && (self.late.queue.pending()
+                && (self.plans.late.queue.pending()
                     || (self.params.mode == Mode::Pre
-                        && (!self.classes.bins.is_empty() || self.ahead.queue.pending())))
+                        && (!self.plans.classes.bins.is_empty()
+                            || self.plans.ahead.queue.pending())))
             {
                 match self.inbox.try_recv() {
                     Ok(c) => c,
                     Err(TryRecvError::Empty) => {
-                        if !self.serve(|l| &mut l.late.queue) && self.params.mode == Mode::Pre {
+                        if !self.serve(|p| &mut p.late.queue) && self.params.mode == Mode::Pre {
                             self.prefetch_step();
                         }
                         continue;
@@ -190,12 +201,12 @@ impl Loader {
                     Err(TryRecvError::Disconnected) => return,
                 }
             } else {
-                let t = self.clock.now();
+                let t = self.clock().now();
                 // Requests started ahead may answer meanwhile: look again soon.
-                let poll = (self.wait_fetch && self.fp.in_flight() > 0).then_some(READY_POLL);
+                let poll = (self.wait_fetch && self.reads.fp.in_flight() > 0).then_some(READY_POLL);
                 let c = self.inbox.recv_within(poll);
                 if !self.wait_fetch {
-                    self.stats.idle_ms += self.clock.ms_since(t);
+                    self.reads.stats.idle_ms += self.clock().ms_since(t);
                 }
                 match c {
                     Ok(Some(c)) => c,
@@ -216,20 +227,21 @@ impl Loader {
                     fading,
                 } => {
                     self.set_tolerance(tolerance_px);
-                    self.classes.set_hidden(&front, &hidden);
+                    self.plans.classes.set_hidden(&front, &hidden);
                     self.keep_hidden(&hidden);
+                    let now = self.clock().now();
                     self.pacing
-                        .on_fetch(self.clock.now(), f64::from(self.params.frame_period_s));
+                        .on_fetch(now, f64::from(self.params.frame_period_s));
                     self.wait_fetch = false;
-                    self.ahead.observe(&view.pose);
+                    self.plans.ahead.observe(&view.pose);
                     if self.fetch(&front, &fading).is_err() {
                         return;
                     }
                     if self.params.mode == Mode::Pre {
-                        let t = self.clock.now();
+                        let t = self.clock().now();
                         self.classify(&view, turn_rad);
                         self.hint_prefetch();
-                        self.stats.classify_ms += self.clock.ms_since(t);
+                        self.reads.stats.classify_ms += self.clock().ms_since(t);
                     }
                 }
                 Cmd::Unusable(r) => self.unusable(r),
@@ -244,10 +256,11 @@ impl Loader {
     /// prefetch may still evict it) and no longer speculative, so that
     /// prefetching does not churn through them under the speculative cap.
     fn keep_hidden(&mut self, hidden: &[RepId]) {
+        let res = &mut self.reads.res;
         for &r in hidden {
-            if self.res.contains(r) {
-                self.res.access(r);
-                self.res.set_speculative(r, false);
+            if res.contains(r) {
+                res.access(r);
+                res.set_speculative(r, false);
             }
         }
     }
@@ -259,7 +272,7 @@ impl Loader {
             return;
         }
         self.params.tolerance_px = tol;
-        self.classes.rebin(Bins::new(
+        self.plans.classes.rebin(Bins::new(
             self.params.prefetch.bins,
             self.params.delta(),
             tol,
@@ -269,7 +282,7 @@ impl Loader {
     /// Classifies the front of `view` for prefetching (when it moved), and
     /// plans the sweep and the lookahead from F_I's front.
     fn classify(&mut self, view: &View, turn_rad: f32) {
-        let Some(room) = self.rep_room(Purpose::Prefetch) else {
+        let Some(room) = self.reads.rep_room(Purpose::Prefetch) else {
             return; // in core: nothing is prefetched
         };
         let plan = Plan::of(&self.skeleton, &self.index, &self.params).with_room(room);
@@ -277,55 +290,51 @@ impl Loader {
         // short: Stage II comes first.
         let inbox = &mut self.inbox;
         let mut stop = || inbox.waiting() || inbox.preempted();
-        let Some((front, margin)) = self
+        let (reads, plans) = (&mut self.reads, &mut self.plans);
+        let Some((front, margin)) = plans
             .classes
-            .classify_front(&plan, &self.res, view, turn_rad, &mut stop)
+            .classify_front(&plan, &reads.res, view, turn_rad, &mut stop)
         else {
             return;
         };
-        self.sweep.plan(&plan, &self.res, &self.failed, front);
-        let t = self.clock.now();
-        self.ahead.plan(
+        plans.sweep.plan(&plan, &reads.res, &reads.failed, front);
+        let t = reads.clock.now();
+        plans.ahead.plan(
             &plan,
-            &mut self.res,
-            &self.failed,
-            &mut self.classes,
+            &mut reads.res,
+            &reads.failed,
+            &mut plans.classes,
             view,
             margin,
-            self.clock.as_ref(),
+            reads.clock.as_ref(),
             &mut stop,
         );
-        self.stats.lookahead_ms += self.clock.ms_since(t);
+        reads.stats.lookahead_ms += reads.clock.ms_since(t);
     }
 
-    /// Footprint bytes of rep `r` while resident: its payload, and the
-    /// reserve of a view-dependence tree's store.
-    fn cost(&self, r: RepId) -> u64 {
-        self.res.cost(r)
+    /// [`Reads::hint_reads`] for what P_I prefetches next: the fronts
+    /// ahead, then the bins in the order they are served.
+    fn hint_prefetch(&self) {
+        let ahead = self.plans.ahead.queue.rest().iter().copied();
+        let bins = self.plans.classes.bins.iter().map(|(r, _)| r);
+        self.reads.hint_reads(ahead.chain(bins), 1024);
     }
 
     /// P_R could not use rep `r` (a view-dependence tree whose store did not
     /// start): drop it and substitute its ancestor from now on.
     fn unusable(&mut self, r: RepId) {
-        if self.failed[r as usize] {
+        let reads = &mut self.reads;
+        if reads.failed[r as usize] {
             return;
         }
-        self.failed[r as usize] = true;
-        self.stats.read_errors += 1;
-        if self.partial.as_ref().is_some_and(|p| p.rep == r) {
-            self.cancel_partial();
+        reads.failed[r as usize] = true;
+        reads.stats.read_errors += 1;
+        if reads.partial.as_ref().is_some_and(|p| p.rep == r) {
+            reads.cancel_partial();
         }
-        if self.res.contains(r) {
-            self.drop_rep(r);
+        if reads.res.contains(r) {
+            reads.drop_rep(r);
         }
-    }
-
-    /// Removes resident rep `r` and tells P_R.
-    fn drop_rep(&mut self, r: RepId) {
-        let wasted = self.res.wasted_bytes();
-        self.res
-            .remove(r, self.skeleton.reps[r as usize].resident_len());
-        self.stats.wasted_bytes += self.res.wasted_bytes() - wasted;
     }
 
     fn start_up(&mut self) -> Result<(), RuntimeError> {
@@ -333,10 +342,11 @@ impl Loader {
         if self.params.mode == Mode::Incore {
             for r in 0..self.skeleton.reps.len() as RepId {
                 // Unreadable reps are substituted at draw time, as in the other modes.
-                let _ = self.load(r, Purpose::Demand);
+                let (reads, mut turn) = self.parts();
+                let _ = reads.load(r, Purpose::Demand, &mut turn);
             }
-            self.stats = LoaderCounters {
-                max_resident_bytes: self.res.bytes(),
+            self.reads.stats = LoaderCounters {
+                max_resident_bytes: self.reads.res.bytes(),
                 ..LoaderCounters::default()
             };
             return Ok(());
@@ -345,13 +355,14 @@ impl Loader {
             return Ok(());
         }
         let r = root.first_rep;
-        let need = self.cost(r) + self.skeleton.reps[r as usize].load_scratch();
-        self.fp.check_root(need)?;
-        match self.load(r, Purpose::Demand) {
+        let need = self.reads.cost(r) + self.skeleton.reps[r as usize].load_scratch();
+        self.reads.fp.check_root(need)?;
+        let (reads, mut turn) = self.parts();
+        match reads.load(r, Purpose::Demand, &mut turn) {
             Ok(_) => {
-                self.res.keep(r);
-                self.stats = LoaderCounters {
-                    max_resident_bytes: self.res.bytes(),
+                reads.res.keep(r);
+                reads.stats = LoaderCounters {
+                    max_resident_bytes: reads.res.bytes(),
                     ..LoaderCounters::default()
                 };
                 Ok(())
@@ -362,61 +373,19 @@ impl Loader {
 
     /// Stage II for one front, and the reps P_R draws fading out.
     fn fetch(&mut self, front: &[RepId], fading: &[RepId]) -> Result<(), RendererGone> {
-        for r in self.retry.release(self.clock.now()) {
-            self.failed[r as usize] = false;
+        let now = self.clock().now();
+        for r in self.reads.retry.release(now) {
+            self.reads.failed[r as usize] = false;
         }
-        self.res.start_stage2(front);
-        self.plan_pages();
-        // Fading out: drawn first, pinned for the frame (the footprint
-        // counts both reps of a switch); an evicted one is not read again.
-        // A fade takes only room the front does not need: the whole front,
-        // the kept root and what is reserved come first.
-        let rec = |r: RepId| &self.skeleton.reps[r as usize];
-        let mut need = if fading.is_empty() {
-            0
-        } else {
-            self.res.reserved()
-                + self.cost(self.skeleton.nodes[0].first_rep)
-                + front
-                    .iter()
-                    .map(|&r| {
-                        let scratch = if self.res.contains(r) {
-                            0
-                        } else {
-                            rec(r).load_scratch()
-                        };
-                        self.cost(r) + scratch
-                    })
-                    .sum::<u64>()
-        };
-        let room = self.fp.reps();
-        let outs: Vec<Draw> = fading
-            .iter()
-            .filter_map(|&r| {
-                let payload = self.res.payload(r)?.clone();
-                let c = self.cost(r);
-                if room.is_some_and(|b| need.saturating_add(c) > b) {
-                    return None;
-                }
-                need += c;
-                self.res.pin(r);
-                self.res.access(r);
-                Some(Draw {
-                    rep: r,
-                    for_rep: r,
-                    payload,
-                })
-            })
-            .collect();
-        if !outs.is_empty() {
-            self.send(Reply::Fading(outs))?;
-        }
+        self.reads.res.start_stage2(front);
+        self.reads.plan_pages();
+        self.send_fading(front, fading)?;
         let mut missing = Vec::new();
         for &r in front {
-            match self.res.payload(r) {
+            match self.reads.res.payload(r) {
                 Some(d) => {
                     let payload = d.clone();
-                    self.res.access(r);
+                    self.reads.res.access(r);
                     // P_R starts drawing while P_I goes through the rest.
                     self.send_draw(Draw {
                         rep: r,
@@ -427,33 +396,37 @@ impl Loader {
                 None => missing.push(r),
             }
         }
-        self.out.flush(self.clock.as_ref())?;
-        self.stats.missing_reps = missing.len() as u32;
+        self.out.flush(self.reads.clock.as_ref())?;
+        let stats = &mut self.reads.stats;
+        stats.missing_reps = missing.len() as u32;
         let m = self
             .misses
-            .account(&self.skeleton, self.res.frame(), front, &missing);
-        self.stats.miss_lod += m.lod;
-        self.stats.miss_hier += m.hier;
-        self.stats.miss_new += m.new;
+            .account(&self.skeleton, self.reads.res.frame(), front, &missing);
+        stats.miss_lod += m.lod;
+        stats.miss_hier += m.hier;
+        stats.miss_new += m.new;
         // In file order: neighbouring reps are read without a seek.
         missing.sort_unstable_by_key(|&r| self.skeleton.reps[r as usize].offset);
-        self.hint_reads(missing.iter().copied(), missing.len());
-        self.late.clear();
+        self.reads
+            .hint_reads(missing.iter().copied(), missing.len());
+        self.plans.late.clear();
         for (i, &r) in missing.iter().enumerate() {
             if !self.in_time_for_frame(r) {
                 // Past the stall deadline: ancestors now, the reps after.
                 for &x in &missing[i..] {
-                    self.stats.late_reps += 1;
-                    self.late.push(x, self.res.frame());
+                    self.reads.stats.late_reps += 1;
+                    self.plans.late.push(x, self.reads.res.frame());
                     self.substitute(x)?;
                 }
                 break;
             }
-            if let Some(end) = self.costs.last_end() {
+            let offset = self.skeleton.reps[r as usize].offset;
+            let (reads, mut turn) = self.parts();
+            if let Some(end) = reads.costs.last_end() {
                 // Through a short gap (keeping prefetch candidates on the way).
-                self.bridge(end, self.skeleton.reps[r as usize].offset, Purpose::Demand);
+                reads.bridge(end, offset, Purpose::Demand, &mut turn);
             }
-            match self.load(r, Purpose::Demand) {
+            match reads.load(r, Purpose::Demand, &mut turn) {
                 Ok(payload) => self.send_draw(Draw {
                     rep: r,
                     for_rep: r,
@@ -462,45 +435,104 @@ impl Loader {
                 Err(_) => self.substitute(r)?,
             }
         }
-        self.stats.resident_bytes = self.res.bytes() + self.pages.bytes();
-        self.stats.page_bytes = self.pages.bytes();
-        self.stats.prefetch_queue = self.classes.bins.len() as u32;
-        self.stats.coalesce_gap = u32::try_from(self.learnt_gap()).unwrap_or(u32::MAX);
+        let reads = &mut self.reads;
+        reads.stats.resident_bytes = reads.res.bytes() + reads.pages.bytes();
+        reads.stats.page_bytes = reads.pages.bytes();
+        reads.stats.prefetch_queue = self.plans.classes.bins.len() as u32;
+        reads.stats.coalesce_gap = u32::try_from(reads.learnt_gap()).unwrap_or(u32::MAX);
         #[cfg(debug_assertions)]
         {
-            if let Err(e) = self.res.validate().and_then(|()| self.pages.validate()) {
+            if let Err(e) = reads.res.validate().and_then(|()| reads.pages.validate()) {
                 panic!("P_I's resident set is inconsistent: {e}");
             }
             // Between reads, only a preempted prefetch read holds a
             // reservation: its footprint and its stored copy.
-            let held = self.partial.as_ref().map_or(0, |p| {
-                self.cost(p.rep) + self.skeleton.reps[p.rep as usize].load_scratch()
+            let held = reads.partial.as_ref().map_or(0, |p| {
+                reads.cost(p.rep) + self.skeleton.reps[p.rep as usize].load_scratch()
             });
-            assert_eq!(self.res.reserved(), held, "a reservation leaked");
+            assert_eq!(reads.res.reserved(), held, "a reservation leaked");
         }
-        self.out.flush(self.clock.as_ref())?;
-        self.stats.reply_wait_ms += self.out.take_wait_ms();
-        let stats = std::mem::take(&mut self.stats);
-        self.stats.max_resident_bytes = self.res.bytes() + self.pages.bytes();
+        self.out.flush(self.reads.clock.as_ref())?;
+        self.reads.stats.reply_wait_ms += self.out.take_wait_ms();
+        let stats = std::mem::take(&mut self.reads.stats);
+        self.reads.stats.max_resident_bytes = self.reads.res.bytes() + self.reads.pages.bytes();
         self.send(Reply::Done(stats))
+    }
+
+    /// Fading out: drawn first, pinned for the frame (the footprint counts
+    /// both reps of a switch); an evicted one is not read again. A fade
+    /// takes only room the front does not need: the whole front, the kept
+    /// root and what is reserved come first.
+    fn send_fading(&mut self, front: &[RepId], fading: &[RepId]) -> Result<(), RendererGone> {
+        let reads = &mut self.reads;
+        let rec = |r: RepId| &self.skeleton.reps[r as usize];
+        let mut need = if fading.is_empty() {
+            0
+        } else {
+            reads.res.reserved()
+                + reads.cost(self.skeleton.nodes[0].first_rep)
+                + front
+                    .iter()
+                    .map(|&r| {
+                        let scratch = if reads.res.contains(r) {
+                            0
+                        } else {
+                            rec(r).load_scratch()
+                        };
+                        reads.cost(r) + scratch
+                    })
+                    .sum::<u64>()
+        };
+        let room = reads.fp.reps();
+        let outs: Vec<Draw> = fading
+            .iter()
+            .filter_map(|&r| {
+                let payload = reads.res.payload(r)?.clone();
+                let c = reads.cost(r);
+                if room.is_some_and(|b| need.saturating_add(c) > b) {
+                    return None;
+                }
+                need += c;
+                reads.res.pin(r);
+                reads.res.access(r);
+                Some(Draw {
+                    rep: r,
+                    for_rep: r,
+                    payload,
+                })
+            })
+            .collect();
+        if outs.is_empty() {
+            return Ok(());
+        }
+        self.send(Reply::Fading(outs))
+    }
+
+    /// Whether a Stage II read of rep `r` ends within the stall deadline.
+    fn in_time_for_frame(&self, r: RepId) -> bool {
+        self.pacing.in_time_for_frame(
+            self.clock().now(),
+            self.reads.first_block_s(r),
+            f64::from(self.params.stall_deadline_s),
+        )
     }
 
     /// Reply `r`, after the draws and evictions before it.
     fn send(&mut self, r: Reply) -> Result<(), RendererGone> {
         self.hand_over_evictions();
-        self.out.send(r, self.clock.as_ref())
+        self.out.send(r, self.reads.clock.as_ref())
     }
 
     /// Draw `d` (grouped), after the evictions before it.
     fn send_draw(&mut self, d: Draw) -> Result<(), RendererGone> {
         self.hand_over_evictions();
-        self.out.draw(d, self.clock.as_ref())
+        self.out.draw(d, self.reads.clock.as_ref())
     }
 
     /// The reps evicted since the last reply go with the next message.
     fn hand_over_evictions(&mut self) {
-        if self.res.has_evicted() {
-            self.out.evicted(self.res.take_evicted());
+        if self.reads.res.has_evicted() {
+            self.out.evicted(self.reads.res.take_evicted());
         }
     }
 
@@ -508,10 +540,10 @@ impl Loader {
     fn substitute(&mut self, r: RepId) -> Result<(), RendererGone> {
         let mut a = self.skeleton.par(r);
         while let Some(x) = a {
-            if let Some(d) = self.res.payload(x) {
+            if let Some(d) = self.reads.res.payload(x) {
                 let payload = d.clone();
-                self.res.pin(x);
-                self.res.access(x);
+                self.reads.res.pin(x);
+                self.reads.res.access(x);
                 return self.send_draw(Draw {
                     rep: x,
                     for_rep: r,
@@ -523,121 +555,10 @@ impl Loader {
         self.send(Reply::Missing)
     }
 
-    /// Loads rep `r` block by block under the budget.
-    fn load(&mut self, r: RepId, purpose: Purpose) -> Result<Arc<[u8]>, LoadError> {
-        if self.failed[r as usize] {
-            return Err(LoadError::Failed);
-        }
-        let rec = self.skeleton.reps[r as usize];
-        let scratch = rec.load_scratch();
-        let len = self.cost(r) + scratch;
-        // In core, a tree comes whole (P_R then refines it without paging).
-        let read = if self.params.mode == Mode::Incore && rec.is_paged() {
-            rec.extent()
-        } else {
-            u64::from(rec.len)
-        };
-        let (mut buf, mut done) = match self.partial.take_if(|p| p.rep == r) {
-            // A preempted prefetch read of this rep goes on (still reserved).
-            Some(p) => {
-                self.stats.resumed += 1;
-                (p.buf, p.done)
-            }
-            None => {
-                // Stage II may take the room of a preempted prefetch read.
-                let room = self.make_room(len, purpose)
-                    || (purpose == Purpose::Demand
-                        && self.cancel_partial()
-                        && self.make_room(len, purpose));
-                if !room {
-                    if purpose == Purpose::Prefetch {
-                        self.stats.prefetch_noroom += 1;
-                    }
-                    return Err(LoadError::NoRoom);
-                }
-                // Reserve first: bytes being loaded count against the budget.
-                self.res.reserve(len);
-                self.note_resident();
-                let mut buf = vec![0u8; read as usize];
-                // On a seek-bound disk, through the page it lies in.
-                let done = self.read_by_pages(&rec, &mut buf, purpose);
-                (buf, done)
-            }
-        };
-        let block = self.params.block_bytes;
-        while done < buf.len() {
-            let end = (done + block).min(buf.len());
-            let t = self.clock.now();
-            if let Err(e) = self
-                .source
-                .read_at(rec.offset + done as u64, &mut buf[done..end])
-            {
-                self.res.release(len);
-                return Err(self.fail(r, &e.to_string(), retry::transient(e.kind())));
-            }
-            let took = self.clock.now() - t;
-            self.observe(rec.offset + done as u64, end - done, took, purpose);
-            let n = (end - done) as u64;
-            match purpose {
-                Purpose::Demand => self.stats.stage2_bytes += n,
-                Purpose::Prefetch if self.is_late(r) => self.stats.late_bytes += n,
-                Purpose::Prefetch => self.stats.prefetch_bytes += n,
-            }
-            done = end;
-            if purpose == Purpose::Prefetch && done < buf.len() && self.preempted() {
-                // Kept, reserved, to go on when P_I is idle again (or when
-                // Stage II needs it).
-                self.cancel_partial();
-                self.partial = Some(Partial { rep: r, buf, done });
-                return Err(LoadError::Preempted);
-            }
-        }
-        if let Err(e) = check_rep_crc(r, &rec, &buf[..rec.len as usize]) {
-            self.res.release(len);
-            return Err(self.fail(r, &e.to_string(), false));
-        }
-        let payload: Arc<[u8]> = if scratch == 0 {
-            buf.into()
-        } else {
-            let t = self.clock.now();
-            let expanded = match expand_payload(&buf, r, &rec) {
-                Ok(p) => Arc::<[u8]>::from(&*p),
-                Err(e) => {
-                    self.res.release(len);
-                    return Err(self.fail(r, &e.to_string(), false));
-                }
-            };
-            self.stats.expand_ms += self.clock.ms_since(t);
-            self.stats.expanded_bytes += expanded.len() as u64;
-            drop(buf);
-            self.res.release(scratch);
-            expanded
-        };
-        let speculative = purpose == Purpose::Prefetch && !self.is_late(r);
-        self.res.insert(r, payload.clone(), speculative);
-        self.retry.succeeded();
-        Ok(payload)
-    }
-
-    fn fail(&mut self, r: RepId, why: &str, transient: bool) -> LoadError {
-        self.failed[r as usize] = true;
-        self.stats.read_errors += 1;
-        let n = self.retry.failed(r, self.clock.now(), transient);
-        // One warning, then one at each power of two: a server gone or a
-        // file replaced fails every read that follows, not worth a line each.
-        if n.is_power_of_two() {
-            tracing::warn!(
-                "rep {r} cannot be loaded ({why}); its nearest resident ancestor is drawn instead{}",
-                if n > 1 {
-                    format!(" ({n} reps so far)")
-                } else {
-                    String::new()
-                }
-            );
-        } else {
-            tracing::debug!("rep {r} cannot be loaded ({why})");
-        }
-        LoadError::Failed
+    /// P_I has no time before the next fetch command: it waits for it.
+    fn wait_for_fetch(&mut self) {
+        self.wait_fetch = true;
+        self.reads.stats.prefetch_waits += 1;
     }
 
     /// PREFETCH: loads the best classified rep, then classifies its parent
@@ -645,54 +566,112 @@ impl Loader {
     /// when their bins come up: a neighbour is read only when its own
     /// priority says it is needed soon (P_I has few seeks per frame).
     fn prefetch_step(&mut self) {
-        if self.partial.is_none() && self.serve(|l| &mut l.ahead.queue) {
+        if self.reads.partial.is_none() && self.serve(|p| &mut p.ahead.queue) {
             return;
         }
-        if self.sweep.take_turn() && self.partial.is_none() && self.sweep_step() {
+        if self.plans.sweep.take_turn() && self.reads.partial.is_none() && self.sweep_step() {
             return;
         }
-        if let Some(r) = self.partial.as_ref().map(|p| p.rep) {
+        if let Some(r) = self.reads.partial.as_ref().map(|p| p.rep) {
             // Still a candidate: binned by this classification or the one
             // before (a child is binned again only when its parent comes up).
-            if self.classes.is_recent(r) {
-                let _ = self.prefetch_read(r);
+            if self.plans.classes.is_recent(r) {
+                let (reads, mut turn) = self.parts();
+                let _ = reads.prefetch_read(r, &mut turn);
                 return;
             }
-            self.cancel_partial();
+            self.reads.cancel_partial();
         }
-        let Some((o, _)) = self.classes.bins.peek() else {
+        let Some((o, _)) = self.plans.classes.bins.peek() else {
             return;
         };
-        if !self.res.contains(o) && !self.first_block_in_time(o) {
+        let (reads, mut turn) = self.parts();
+        if !reads.res.contains(o) && !reads.first_block_in_time(o, &mut turn) {
             // Not even its first block (the seek) before the next frame:
             // wait for the fetch command. (A longer read is preempted and
             // goes on later.)
-            self.wait_fetch = true;
-            self.stats.prefetch_waits += 1;
+            self.wait_for_fetch();
             return;
         }
-        let Some((o, depth)) = self.classes.bins.pop() else {
+        let Some((o, depth)) = self.plans.classes.bins.pop() else {
             return;
         };
-        if self.res.contains(o) {
-            self.res.access(o);
+        let (reads, mut turn) = self.parts();
+        if reads.res.contains(o) {
+            reads.res.access(o);
         } else {
             // On through the file to the next candidates, while cheap.
-            match self.prefetch_read(o) {
+            match reads.prefetch_read(o, &mut turn) {
                 Ok(()) | Err(LoadError::NoRoom) | Err(LoadError::Failed) => {}
                 Err(LoadError::Preempted) => return,
             }
         }
         let plan = Plan::of(&self.skeleton, &self.index, &self.params);
-        self.classes.classify_neighbours(&plan, o, depth);
+        self.plans.classes.classify_neighbours(&plan, o, depth);
     }
-}
 
-/// Footprint of rep `r` while resident: its payload, and the reserve of a
-/// view-dependence tree's store.
-fn footprint(lens: &[u64], pools: &[u64], r: usize) -> u64 {
-    lens[r]
-        + Some(pools[r])
-            .filter(|&p| p != super::trees::UNUSABLE)
-            .unwrap_or(0)
+    /// One read from the queue `queue` picks (the next rep still wanted), and
+    /// on through the file while cheap. Returns whether P_I read or decided
+    /// to wait for the next fetch command (the rep's seek would not end
+    /// before it); with no room left without evicting what must stay, the
+    /// rest of the queue is dropped.
+    fn serve(&mut self, queue: fn(&mut Planners) -> &mut ReadQueue) -> bool {
+        loop {
+            let Some(r) = queue(&mut self.plans).next() else {
+                return false;
+            };
+            let (reads, mut turn) = self.parts();
+            if !reads.wanted(r, &turn) {
+                queue(&mut self.plans).advance();
+                continue;
+            }
+            if !reads.first_block_in_time(r, &mut turn) {
+                self.wait_for_fetch();
+                return true;
+            }
+            queue(&mut self.plans).advance();
+            let (reads, mut turn) = self.parts();
+            if let Err(LoadError::NoRoom) = reads.prefetch_read(r, &mut turn) {
+                queue(&mut self.plans).clear();
+            }
+            return true;
+        }
+    }
+
+    /// One sweep read ([`Sweep`]): the next small candidate at or after the
+    /// cursor (wrapping round), and on through the file while cheap.
+    /// Returns whether it read (or tried to).
+    fn sweep_step(&mut self) -> bool {
+        let plan = Plan::of(&self.skeleton, &self.index, &self.params);
+        let turn = LoopTurn {
+            inbox: &mut self.inbox,
+            out: &mut self.out,
+            pacing: &self.pacing,
+            plans: &self.plans,
+        };
+        let reads = &self.reads;
+        let Some(r) = self.plans.sweep.next(&plan, |r| reads.wanted(r, &turn)) else {
+            self.plans.sweep.clear();
+            return false;
+        };
+        let rec = self.skeleton.reps[r as usize];
+        let (reads, mut turn) = self.parts();
+        let bridged = reads
+            .costs
+            .last_end()
+            .is_some_and(|end| reads.bridge(end, rec.offset, Purpose::Prefetch, &mut turn));
+        if turn.inbox.waiting() {
+            return true;
+        }
+        if !bridged && !reads.first_block_in_time(r, &mut turn) {
+            return false;
+        }
+        let read = reads.prefetch_read(r, &mut turn);
+        let at = reads.costs.last_end().unwrap_or(rec.offset);
+        if let Err(LoadError::NoRoom) = read {
+            self.plans.sweep.clear();
+        }
+        self.plans.sweep.moved_to(at);
+        true
+    }
 }

@@ -36,6 +36,7 @@ mod mts;
 #[cfg(test)]
 mod page_tests;
 mod params;
+mod protocol;
 pub mod resident;
 #[cfg(test)]
 mod section_tests;
@@ -53,65 +54,18 @@ use crossbeam_channel::{Receiver, Sender, bounded};
 use crate::camera::{Pose, View};
 use crate::front::FrontIndex;
 use crate::io::ByteSource;
-use crate::metrics::{FrameMetrics, LoaderCounters};
+use crate::metrics::FrameMetrics;
 use crate::render::{DrawStyle, Fade, Renderer};
 use crate::skeleton::{RepId, Skeleton};
 pub use footprint::{Footprint, Held, Shares};
 pub use params::{Mode, PrefetchParams, RuntimeError, RuntimeParams};
+use protocol::{Cmd, Draw, Reply};
 
 /// The page size for scenes read over a network (`hlod-bench --page auto`,
 /// `hlod-view`): every request pays the round trip, so P_I reads the
 /// neighbours of a small rep with it, under the footprint (measured in
 /// docs/results.md, "Scenes over HTTP").
 pub const REMOTE_PAGE_BYTES: u64 = 128 << 10;
-
-/// P_R → P_I.
-enum Cmd {
-    Fetch {
-        /// Boxed: a view with its section is the largest part of a command.
-        view: Box<View>,
-        turn_rad: f32,
-        front: Arc<Vec<RepId>>,
-        /// Reps of the view's front that occlusion culling left out.
-        hidden: Arc<Vec<RepId>>,
-        /// The tolerance the front was computed for (the governor's).
-        tolerance_px: f32,
-        /// Reps P_R draws fading out (`crate::fade`): P_I hands over and
-        /// pins those resident, before the front.
-        fading: Arc<Vec<RepId>>,
-    },
-    /// P_R cannot use this rep (a view-dependence tree whose store failed).
-    Unusable(RepId),
-    /// Answer on the sender once P_I has nothing more to do before the
-    /// next fetch command (nothing queued, or its pacing says wait): on a
-    /// simulated clock a paced walk waits for it instead of sleeping.
-    Settle(crossbeam_channel::Sender<()>),
-    Shutdown,
-}
-
-/// Draw `rep` for front rep `for_rep` (an ancestor when they differ).
-struct Draw {
-    rep: RepId,
-    for_rep: RepId,
-    payload: Arc<[u8]>,
-}
-
-/// P_I → P_R.
-enum Reply {
-    /// Front reps to draw (resident ones, those Stage II read, ancestors
-    /// in place of others), grouped (`loader::outbox`): P_I goes on
-    /// reading and prefetching while P_R draws them, instead of waiting on
-    /// the channel for P_R to take them one by one.
-    Draws(Vec<Draw>),
-    /// The fading-out reps still resident (before any other draw).
-    Fading(Vec<Draw>),
-    /// Nothing resident can stand in for `for_rep` (only without a root rep).
-    Missing,
-    /// P_I evicted these reps (sent before any later draw).
-    Evicted(Vec<RepId>),
-    /// Stage II is over.
-    Done(LoaderCounters),
-}
 
 /// P_R: drives frames against a running P_I.
 pub struct Walkthrough {
@@ -198,7 +152,7 @@ impl Walkthrough {
             skeleton.clone(),
             index.clone(),
             source,
-            pools,
+            &pools,
             (params, fp),
             (cmd_rx, reply_tx),
             clock.clone(),

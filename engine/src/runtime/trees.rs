@@ -31,15 +31,17 @@ use crate::vdt::ext::ExtStore;
 use crate::vdt::file::{VdtFile, VdtHeader};
 use crate::vdt::refine::{Criterion, NodeStore, Refiner};
 
-/// Pool marker of a tree rep that cannot be used (P_I never loads it).
-pub(super) const UNUSABLE: u64 = u64::MAX;
-
 /// Bytes P_I reserves for each tree rep's store, besides its payload: the
 /// tree's in-core part plus `max(need, min(wanted, DATA))` holder bytes,
 /// where `need` is the root meta-nodes and three of the largest. Reads each
 /// tree's header and root records (one small read per tree); 0 for other
-/// reps, [`UNUSABLE`] for a tree whose header cannot be read.
-pub(super) fn plan_pools(skeleton: &Skeleton, source: &dyn ByteSource, wanted: u64) -> Vec<u64> {
+/// reps, `None` for a tree or MT whose header cannot be read (the rep is
+/// not usable: P_I never loads it).
+pub(super) fn plan_pools(
+    skeleton: &Skeleton,
+    source: &dyn ByteSource,
+    wanted: u64,
+) -> Vec<Option<u64>> {
     skeleton
         .reps
         .iter()
@@ -50,12 +52,12 @@ pub(super) fn plan_pools(skeleton: &Skeleton, source: &dyn ByteSource, wanted: u
             } else if rec.is_mt() {
                 super::mts::plan(source, rec, wanted)
             } else {
-                return 0;
+                return Some(0);
             };
-            plan.unwrap_or_else(|why| {
+            plan.map_err(|why| {
                 tracing::warn!("paged rep {r}: {why}; its finest static LOD is drawn instead");
-                UNUSABLE
             })
+            .ok()
         })
         .collect()
 }
@@ -147,7 +149,7 @@ pub(super) struct TreeFrame {
 pub(super) struct Trees {
     source: Arc<dyn ByteSource>,
     skeleton: Arc<Skeleton>,
-    pools: Arc<Vec<u64>>,
+    pools: Arc<Vec<Option<u64>>>,
     incore: bool,
     live: BTreeMap<RepId, Tree>,
     mts: BTreeMap<RepId, super::mts::MtLive>,
@@ -160,7 +162,7 @@ impl Trees {
     pub(super) fn new(
         source: Arc<dyn ByteSource>,
         skeleton: Arc<Skeleton>,
-        pools: Arc<Vec<u64>>,
+        pools: Arc<Vec<Option<u64>>>,
         incore: bool,
         mt_mode: crate::mt::cache::CacheMode,
         clock: Arc<dyn crate::clock::Clock>,
@@ -195,6 +197,12 @@ impl Trees {
         self.mts.remove(&r);
     }
 
+    /// Rep `r`'s store reserve. A rep whose store could not be planned
+    /// (`None`) is never handed to P_R: P_I does not load it.
+    fn pool(&self, r: RepId) -> u64 {
+        self.pools[r as usize].unwrap_or(0)
+    }
+
     fn open(&self, r: RepId, payload: &Arc<[u8]>) -> Result<Tree, TreeError> {
         let rec = &self.skeleton.reps[r as usize];
         // In core the payload is the whole file: the window never reads
@@ -212,7 +220,7 @@ impl Trees {
             let tree = file.load_tree()?;
             Store::Core(Box::new(tree), flat)
         } else {
-            let s = ExtStore::start(Arc::new(file), self.pools[r as usize])?;
+            let s = ExtStore::start(Arc::new(file), self.pool(r))?;
             Store::Ext(Box::new(s))
         };
         let refiner = Refiner::new(store.nodes())?;
@@ -264,11 +272,7 @@ impl Trees {
         if !self.mts.contains_key(&r) {
             // In core the payload is the whole file and nothing limits the
             // store but the file itself.
-            let pool = if self.incore {
-                u64::MAX
-            } else {
-                self.pools[r as usize]
-            };
+            let pool = if self.incore { u64::MAX } else { self.pool(r) };
             let m =
                 super::mts::MtLive::open(self.source.clone(), &rec, payload, pool, self.mt_mode)?;
             self.mts.insert(r, m);

@@ -43,8 +43,8 @@
 
 use glam::{Quat, Vec3};
 
-use super::Plan;
 use super::classify::Classifier;
+use super::plan::Plan;
 use super::span::ReadQueue;
 use crate::camera::{Pose, View};
 use crate::clock::Clock;

@@ -2,7 +2,7 @@
 //! F_I — all around the eye when that front fits the footprint — binned
 //! by `Priority(O)`, and the PAR/CHD of each rep PREFETCH serves.
 
-use super::Plan;
+use super::plan::Plan;
 use crate::camera::{Frustum, View};
 use crate::prefetch::{Bins, ang_pr, priority};
 use crate::runtime::resident::ResidentSet;

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use crossbeam_channel::{Receiver, RecvError, RecvTimeoutError, Sender, TryRecvError};
 
-use super::super::Cmd;
+use crate::runtime::protocol::Cmd;
 
 /// How often P_I, waiting for the next fetch command with nothing it may
 /// start in time, looks again whether requests started ahead have answered.

@@ -12,7 +12,6 @@
 //! draws them. Their bytes are demand bytes (`late_bytes`), reported with
 //! Stage II's.
 
-use super::Loader;
 use super::span::ReadQueue;
 use crate::skeleton::RepId;
 
@@ -46,21 +45,5 @@ impl LateReads {
     /// Whether rep `r` went late in frame `frame`.
     pub(super) fn is_late(&self, r: RepId, frame: u32) -> bool {
         self.frame_of[r as usize] == frame
-    }
-}
-
-impl Loader {
-    /// Whether Stage II may start reading rep `r` under the stall deadline.
-    pub(super) fn in_time_for_frame(&self, r: RepId) -> bool {
-        self.pacing.in_time_for_frame(
-            self.clock.now(),
-            self.first_block_s(r),
-            f64::from(self.params.stall_deadline_s),
-        )
-    }
-
-    /// Whether rep `r` is late: in this frame's front and past its deadline.
-    pub(super) fn is_late(&self, r: RepId) -> bool {
-        self.late.is_late(r, self.res.frame())
     }
 }

@@ -27,10 +27,13 @@ use std::collections::VecDeque;
 
 use crossbeam_channel::Sender;
 
-use super::super::{Draw, Reply};
-use super::RendererGone;
 use crate::clock::Clock;
+use crate::runtime::protocol::{Draw, Reply};
 use crate::skeleton::RepId;
+
+/// P_R is gone (its receiver dropped): P_I stops.
+#[derive(Debug)]
+pub(super) struct RendererGone;
 
 /// Draws per message at most.
 pub(super) const DRAW_BATCH: usize = 256;

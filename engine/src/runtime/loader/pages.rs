@@ -18,10 +18,11 @@ use std::sync::Arc;
 
 use lru::LruCache;
 
-use super::{Loader, Purpose};
+use super::reads::{Reads, Turn};
 use crate::format::RepRecord;
 use crate::runtime::Mode;
 use crate::runtime::footprint::Held;
+use crate::runtime::resident::Purpose;
 use crate::skeleton::RepId;
 
 /// Stored bytes of recently read pages, least recently used first out.
@@ -147,7 +148,7 @@ impl PageCache {
     }
 }
 
-impl Loader {
+impl Reads {
     /// Whether pages are asked for and a seek, or a request's fixed cost
     /// (a network's round trip), costs at least a page's transfer (learnt).
     fn paging(&self) -> bool {
@@ -196,6 +197,7 @@ impl Loader {
         rec: &RepRecord,
         buf: &mut [u8],
         purpose: Purpose,
+        turn: &dyn Turn,
     ) -> usize {
         if buf.len() as u64 != u64::from(rec.len) || !self.by_pages(rec) {
             return 0;
@@ -208,7 +210,7 @@ impl Loader {
             self.stats.page_hits += 1;
         }
         if purpose == Purpose::Prefetch {
-            self.demote_spent(rec);
+            self.demote_spent(rec, turn);
         }
         buf.len()
     }
@@ -226,7 +228,7 @@ impl Loader {
     /// pages had Stage II read them again (3.4× the bytes of `nopre` on the
     /// DE-size fly-through at RTT 50 ms). Without prefetching nothing is
     /// wanted ahead: the pages go by last use.
-    fn demote_spent(&mut self, rec: &RepRecord) {
+    fn demote_spent(&mut self, rec: &RepRecord, turn: &dyn Turn) {
         if self.params.mode != Mode::Pre {
             return;
         }
@@ -243,7 +245,7 @@ impl Loader {
                     self.skeleton.reps[r as usize].offset != rec.offset
                         && !self.failed[r as usize]
                         && !self.res.contains(r)
-                        && self.classes.is_recent(r)
+                        && turn.is_recent(r)
                 });
             if !wanted {
                 self.pages.demote(page);
@@ -386,13 +388,6 @@ impl Loader {
             }
         }
         self.source.hint(&ranges);
-    }
-
-    /// [`hint_reads`](Self::hint_reads) for what P_I prefetches next: the
-    /// fronts ahead, then the bins in the order they are served.
-    pub(super) fn hint_prefetch(&self) {
-        let ahead = self.ahead.queue.rest().iter().copied();
-        self.hint_reads(ahead.chain(self.classes.bins.iter().map(|(r, _)| r)), 1024);
     }
 
     /// The expected time of rep `rec`'s read by pages: nothing but a copy

@@ -17,7 +17,8 @@
 
 use std::time::Duration;
 
-use super::{LoadError, Loader, Purpose};
+use super::reads::{LoadError, Reads, Turn};
+use crate::runtime::resident::Purpose;
 use crate::skeleton::{RepId, Skeleton};
 
 /// Learnt read costs of the rep source.
@@ -268,6 +269,16 @@ impl ReadQueue {
         self.at = 0;
     }
 
+    /// The next rep to read.
+    pub(super) fn next(&self) -> Option<RepId> {
+        self.reps.get(self.at).copied()
+    }
+
+    /// Goes past the next rep.
+    pub(super) fn advance(&mut self) {
+        self.at += 1;
+    }
+
     /// Whether reps wait to be read.
     pub(super) fn pending(&self) -> bool {
         self.at < self.reps.len()
@@ -305,7 +316,7 @@ impl FileOrder {
     }
 }
 
-impl Loader {
+impl Reads {
     /// Accounts one read of `n` bytes at `offset` (time, seek) and learns
     /// the read costs from it.
     pub(super) fn observe(&mut self, offset: u64, n: usize, took: Duration, purpose: Purpose) {
@@ -348,17 +359,21 @@ impl Loader {
     /// Whether rep `g` is a prefetch candidate worth keeping when a read
     /// passes over it: queued in this classification (or late in this
     /// frame) and not resident.
-    pub(super) fn wanted(&self, g: RepId) -> bool {
-        (self.classes.is_queued(g) || self.is_late(g))
-            && !self.res.contains(g)
-            && !self.failed[g as usize]
+    pub(super) fn wanted(&self, g: RepId, turn: &dyn Turn) -> bool {
+        turn.queued(g, self.res.frame()) && !self.res.contains(g) && !self.failed[g as usize]
     }
 
     /// Reads from `from` to `to` when the last read ended at `from` and the
     /// gap is short enough: keeps the prefetch candidates on the way (as
     /// prefetched reps, under the budget) and discards the other bytes.
     /// Returns whether the next read at `to` continues without a seek.
-    pub(super) fn bridge(&mut self, from: u64, to: u64, purpose: Purpose) -> bool {
+    pub(super) fn bridge(
+        &mut self,
+        from: u64,
+        to: u64,
+        purpose: Purpose,
+        turn: &mut dyn Turn,
+    ) -> bool {
         if to <= from || self.costs.last_end() != Some(from) || to - from > self.max_gap() {
             return to == from && self.costs.last_end() == Some(from);
         }
@@ -370,14 +385,14 @@ impl Loader {
             if rec.offset >= to {
                 break;
             }
-            if rec.offset + rec.extent() > to || !self.wanted(g) {
+            if rec.offset + rec.extent() > to || !self.wanted(g, turn) {
                 continue;
             }
-            if !self.skip(cur, rec.offset, purpose) {
+            if !self.skip(cur, rec.offset, purpose, turn) {
                 ok = false;
                 break;
             }
-            match self.load(g, Purpose::Prefetch) {
+            match self.load(g, Purpose::Prefetch, turn) {
                 Ok(_) => cur = rec.offset + u64::from(rec.len),
                 Err(LoadError::NoRoom) | Err(LoadError::Failed) => {}
                 Err(LoadError::Preempted) => {
@@ -387,13 +402,19 @@ impl Loader {
             }
         }
         self.order = order;
-        ok && self.skip(cur, to, purpose)
+        ok && self.skip(cur, to, purpose, turn)
     }
 
     /// Reads `from..to` and discards it (the bytes of a gap); false when the
     /// read failed or was preempted by a fetch command, or, from a source
     /// that times its requests, when the gap is not answered already.
-    pub(super) fn skip(&mut self, from: u64, to: u64, purpose: Purpose) -> bool {
+    pub(super) fn skip(
+        &mut self,
+        from: u64,
+        to: u64,
+        purpose: Purpose,
+        turn: &mut dyn Turn,
+    ) -> bool {
         if to > from && self.costs.learns_from_responses() && !self.source.is_ready(from, to - from)
         {
             // Over a network a gap is worth reading only as part of a range
@@ -416,38 +437,19 @@ impl Loader {
             self.observe(at, n, took, purpose);
             self.stats.skipped_bytes += n as u64;
             at += n as u64;
-            if purpose == Purpose::Prefetch && at < to && self.preempted() {
+            if purpose == Purpose::Prefetch && at < to && turn.preempted() {
                 return false;
             }
         }
         true
     }
 
-    /// Gives up the preempted prefetch read, if any, and its reservation;
-    /// returns whether there was one.
-    pub(super) fn cancel_partial(&mut self) -> bool {
-        match self.partial.take() {
-            Some(p) => {
-                // What `load` reserved: the footprint and the stored copy.
-                let c = self.cost(p.rep) + self.skeleton.reps[p.rep as usize].load_scratch();
-                self.res.release(c);
-                true
-            }
-            None => false,
-        }
-    }
-
-    /// Whether a new fetch command arrived (kept as pending).
-    pub(super) fn preempted(&mut self) -> bool {
-        self.inbox.preempted()
-    }
-
     /// Whether the first block of a prefetch read of rep `r` ends before
     /// the next fetch command is due. A read that overruns delays P_R's
     /// next frame by the overrun: the estimate is per read, so that a small
     /// rep still fits at the end of a frame where a large one would not.
-    pub(super) fn first_block_in_time(&mut self, r: RepId) -> bool {
-        self.ends_in_time(self.first_block_s(r))
+    pub(super) fn first_block_in_time(&self, r: RepId, turn: &mut dyn Turn) -> bool {
+        turn.ends_in_time(self.clock.now(), self.first_block_s(r))
     }
 
     /// The expected time of the first block of a read of rep `r` (a seek
@@ -471,57 +473,21 @@ impl Loader {
         self.costs.first_block_estimate(at, bytes, block)
     }
 
-    /// The same for `len` bytes read on from where the last read ended.
-    pub(super) fn fits_in_frame_sequential(&mut self, len: u64) -> bool {
-        self.ends_in_time(self.costs.overhead_s + len as f64 * self.costs.per_byte_s)
-    }
-
-    /// Whether work of `need_s` seconds started now ends before the next
-    /// fetch command: always while P_R has a group of draws it has not
-    /// started (it draws before it asks again), else as the pacing expects.
-    pub(super) fn ends_in_time(&mut self, need_s: f64) -> bool {
-        self.out.p_r_busy() || self.pacing.ends_in_time(self.clock.now(), need_s)
-    }
-
-    /// One read from the queue `queue` picks (the next rep still wanted), and
-    /// on through the file while cheap. Returns whether P_I read or decided
-    /// to wait for the next fetch command (the rep's seek would not end
-    /// before it); with no room left without evicting what must stay, the
-    /// rest of the queue is dropped.
-    pub(super) fn serve(&mut self, queue: fn(&mut Self) -> &mut ReadQueue) -> bool {
-        loop {
-            let q = queue(self);
-            let Some(&r) = q.reps.get(q.at) else {
-                return false;
-            };
-            if !self.wanted(r) {
-                queue(self).at += 1;
-                continue;
-            }
-            if !self.first_block_in_time(r) {
-                self.wait_fetch = true;
-                self.stats.prefetch_waits += 1;
-                return true;
-            }
-            queue(self).at += 1;
-            if let Err(LoadError::NoRoom) = self.prefetch_read(r) {
-                queue(self).clear();
-            }
-            return true;
-        }
-    }
-
     /// Prefetches rep `r`, then reads on to the candidates stored after it
     /// while that is cheap ([`extend_prefetch`](Self::extend_prefetch)).
-    pub(super) fn prefetch_read(&mut self, r: RepId) -> Result<(), LoadError> {
-        self.load(r, Purpose::Prefetch)?;
-        self.extend_prefetch(r)
+    pub(super) fn prefetch_read(&mut self, r: RepId, turn: &mut dyn Turn) -> Result<(), LoadError> {
+        self.load(r, Purpose::Prefetch, turn)?;
+        self.extend_prefetch(r, turn)
     }
 
     /// Continues a prefetch read past rep `x` to the next candidates stored
-    /// within the break-even gap, while each read still ends before the next
-    /// fetch command is due.
-    pub(super) fn extend_prefetch(&mut self, mut x: RepId) -> Result<(), LoadError> {
+    /// within the break-even gap, while each read, going on from where the
+    /// last one ended, still ends before the next fetch command is due.
+    pub(super) fn extend_prefetch(
+        &mut self,
+        mut x: RepId,
+        turn: &mut dyn Turn,
+    ) -> Result<(), LoadError> {
         loop {
             let rec = self.skeleton.reps[x as usize];
             let end = rec.offset + u64::from(rec.len);
@@ -532,18 +498,19 @@ impl Loader {
                 .iter()
                 .take_while(|&&g| self.skeleton.reps[g as usize].offset <= end + gap)
                 .copied()
-                .find(|&g| self.wanted(g));
+                .find(|&g| self.wanted(g, turn));
             let Some(n) = next else { return Ok(()) };
             let nrec = self.skeleton.reps[n as usize];
             let bytes = nrec.offset - end + u64::from(nrec.len);
+            let need_s = self.costs.overhead_s + bytes as f64 * self.costs.per_byte_s;
             // `n` is the first candidate after `x`: the gap holds none.
             if self.costs.last_end() != Some(end)
-                || !self.fits_in_frame_sequential(bytes)
-                || !self.skip(end, nrec.offset, Purpose::Prefetch)
+                || !turn.ends_in_time(self.clock.now(), need_s)
+                || !self.skip(end, nrec.offset, Purpose::Prefetch, turn)
             {
                 return Ok(());
             }
-            self.load(n, Purpose::Prefetch)?;
+            self.load(n, Purpose::Prefetch, turn)?;
             x = n;
         }
     }

@@ -11,7 +11,7 @@
 //! wraps round at the end of the file. Prefetch steps alternate between
 //! the sweep and the bins (the paper's priority order).
 
-use super::{LoadError, Loader, Plan, Purpose};
+use super::plan::Plan;
 use crate::runtime::resident::ResidentSet;
 use crate::skeleton::RepId;
 
@@ -76,37 +76,6 @@ impl Sweep {
     /// Ends the sweep (nothing left to read, or no room left for it).
     pub(super) fn clear(&mut self) {
         self.reps.clear();
-    }
-}
-
-impl Loader {
-    /// One sweep read: the next small candidate at or after the cursor
-    /// (wrapping round), and on through the file while cheap. Returns
-    /// whether it read (or tried to).
-    pub(super) fn sweep_step(&mut self) -> bool {
-        let plan = Plan::of(&self.skeleton, &self.index, &self.params);
-        let Some(r) = self.sweep.next(&plan, |r| self.wanted(r)) else {
-            self.sweep.clear();
-            return false;
-        };
-        let rec = self.skeleton.reps[r as usize];
-        let bridged = self
-            .costs
-            .last_end()
-            .is_some_and(|end| self.bridge(end, rec.offset, Purpose::Prefetch));
-        if self.inbox.waiting() {
-            return true;
-        }
-        if !bridged && !self.first_block_in_time(r) {
-            return false;
-        }
-        match self.prefetch_read(r) {
-            Ok(()) | Err(LoadError::Failed) | Err(LoadError::Preempted) => {}
-            Err(LoadError::NoRoom) => self.sweep.clear(),
-        }
-        self.sweep
-            .moved_to(self.costs.last_end().unwrap_or(rec.offset));
-        true
     }
 }
 
