@@ -23,7 +23,7 @@
 //! - [`camera`]: poses, views, frustum, projected error and the camera path
 //!   format; [`front`]: the per-frame front (frustum and
 //!   simplification culling).
-//! - [`cache`] (StartTail InMemoryList), [`prefetch`] (bins, AngPr, Priority)
+//! - [`evict`] (one eviction interface: StartTail InMemoryList, LRU, Belady), [`prefetch`] (bins, AngPr, Priority)
 //!   and [`runtime`]: P_R ([`runtime::Walkthrough`]) and the P_I loader thread
 //!   under a hard byte budget, in `incore`, `nopre` and `pre` modes.
 //! - [`metrics`] (per-frame CSV, summaries) and [`render`] (the renderer trait
@@ -52,10 +52,10 @@
 //! generated paths and report tables; `hlod-bench` / `vdt-bench` with their
 //! plots live in `engine-tools` (`engine/tools/`).
 
-pub mod cache;
 pub mod camera;
 pub mod clock;
 pub mod disk;
+pub mod evict;
 pub mod fade;
 pub mod format;
 pub mod front;

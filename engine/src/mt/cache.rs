@@ -309,5 +309,42 @@ impl NodeCache {
     }
 }
 
+/// The MT node cache as an [`Eviction`](crate::evict::Eviction) policy
+/// under memory pressure: the node longest off the cut goes first. Use is
+/// being on the cut, which [`NodeCache::end_frame`] records for a whole
+/// frame; a read node is told its partition and layer.
+impl crate::evict::Eviction for NodeCache {
+    type Key = u32;
+    /// The node's partition and layer.
+    type Hint = (u32, u32);
+
+    fn insert(&mut self, n: u32, (p, l): (u32, u32)) {
+        self.loaded(n, p, l);
+    }
+
+    /// Nothing: a node's recency is the last frame it was on the cut.
+    fn access(&mut self, _n: u32, _hint: (u32, u32)) {}
+
+    fn remove(&mut self, n: u32) {
+        NodeCache::remove(self, n);
+    }
+
+    fn victims(&self) -> Box<dyn Iterator<Item = crate::evict::Victim<u32>> + '_> {
+        Box::new(
+            self.oldest()
+                .into_iter()
+                .map(|key| crate::evict::Victim { key, recent: false }),
+        )
+    }
+
+    fn contains(&self, n: u32) -> bool {
+        self.is_resident(n)
+    }
+
+    fn len(&self) -> usize {
+        self.resident.len()
+    }
+}
+
 #[cfg(test)]
 mod tests;

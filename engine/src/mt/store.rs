@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 use super::cache::{CacheMode, Mark, NodeCache};
 use super::file::{MtFile, MtFileError, NodeData};
+use crate::evict::Eviction;
 
 /// Bytes a node of a `len`-byte record holds in core: the record and, at
 /// most as much again, its arc and tuple tables (known before it is read,
@@ -190,7 +191,7 @@ impl MtStore {
             match r {
                 Ok(nd) if self.peek(n).is_none() && !self.bad[n as usize] => {
                     self.bytes += node_bytes(f.dir[n as usize].len);
-                    self.cache.loaded(n, p, nd.head.layer);
+                    Eviction::insert(&mut self.cache, n, (p, nd.head.layer));
                     self.resident[n as usize] = Some(Arc::new(nd));
                     self.count += 1;
                     if self.evict_order.is_some() {
@@ -221,7 +222,10 @@ impl MtStore {
         if self.refused_at.is_some_and(|r| need >= r) {
             return false;
         }
-        let sorted = self.evict_order.get_or_insert_with(|| self.cache.oldest());
+        let cache = &self.cache;
+        let sorted = self
+            .evict_order
+            .get_or_insert_with(|| cache.victims().map(|v| v.key).collect());
         let order: Vec<u32> = self
             .fresh
             .iter()
@@ -256,7 +260,7 @@ impl MtStore {
         if self.resident[n as usize].take().is_some() {
             self.bytes -= node_bytes(self.file.dir[n as usize].len);
             self.count -= 1;
-            self.cache.remove(n);
+            Eviction::remove(&mut self.cache, n);
         }
     }
 

@@ -5,8 +5,8 @@
 use std::collections::BinaryHeap;
 use std::sync::Arc;
 
+use crate::evict::lru::LruMap;
 use glam::Vec3;
-use lru::LruCache;
 
 use crate::format::{PackedVertex, REP_MAGIC, RepHeader};
 use crate::skeleton::RepId;
@@ -119,7 +119,7 @@ impl Eq for Ranked {}
 #[derive(Debug)]
 pub struct OccluderStore {
     /// Each rep's triangles and the frame it was last used in.
-    entries: LruCache<RepId, (Tris, u32)>,
+    entries: LruMap<RepId, (Tris, u32)>,
     bytes: u64,
     capacity: u64,
 }
@@ -128,7 +128,7 @@ impl OccluderStore {
     /// A store of at most `capacity` bytes.
     pub fn new(capacity: u64) -> Self {
         Self {
-            entries: LruCache::unbounded(),
+            entries: LruMap::default(),
             bytes: 0,
             capacity,
         }
@@ -145,7 +145,7 @@ impl OccluderStore {
 
     /// Rep `r`'s triangles, if held (marked as used in `frame`).
     pub fn get(&mut self, r: RepId, frame: u32) -> Option<Tris> {
-        self.entries.get_mut(&r).map(|e| {
+        self.entries.get_mut(r).map(|e| {
             e.1 = frame;
             e.0.clone()
         })
@@ -153,7 +153,7 @@ impl OccluderStore {
 
     /// Whether rep `r`'s triangles are held (not marked as used).
     pub fn contains(&self, r: RepId) -> bool {
-        self.entries.contains(&r)
+        self.entries.contains(r)
     }
 
     /// Keeps rep `r`'s occluders, taken from its raw payload, unless held
@@ -168,7 +168,7 @@ impl OccluderStore {
             return;
         }
         while self.bytes + cost > self.capacity {
-            match self.entries.pop_lru() {
+            match self.entries.pop_victim() {
                 Some((_, (t, _))) => self.bytes -= Self::cost(&t),
                 None => break,
             }
@@ -189,7 +189,8 @@ impl OccluderStore {
 
     /// The byte count matches the entries and stays within the capacity.
     pub fn validate(&self) -> Result<(), String> {
-        let sum: u64 = self.entries.iter().map(|(_, (t, _))| Self::cost(t)).sum();
+        self.entries.validate()?;
+        let sum: u64 = self.entries.values().map(|(_, (t, _))| Self::cost(t)).sum();
         if sum != self.bytes {
             return Err(format!(
                 "store counts {} bytes, entries hold {sum}",

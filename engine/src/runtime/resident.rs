@@ -3,12 +3,14 @@
 //! the bytes reserved for reads in flight, the pins of the frame being
 //! drawn and the root rep that is never evicted. [`ResidentSet::make_room`]
 //! is the eviction rule (Varadhan & Manocha §4.3 with this engine's
-//! speculative cap); [`ResidentSet::validate`] checks every invariant.
+//! speculative cap) over the StartTail order ([`crate::evict`]);
+//! [`ResidentSet::validate`] checks every invariant.
 //! Plain Rust: no thread, no channel, no byte source, no clock.
 
 use std::sync::Arc;
 
-use crate::cache::InMemoryList;
+use crate::evict::start_tail::InMemoryList;
+use crate::evict::{Eviction, Verdict, choose};
 use crate::skeleton::RepId;
 
 /// Who asks for room: Stage II may evict any unpinned rep; a prefetch only
@@ -135,7 +137,7 @@ impl ResidentSet {
 
     /// An access: rep `r` moves right after StartTail.
     pub fn access(&mut self, r: RepId) {
-        self.list.access(r);
+        Eviction::access(&mut self.list, r, ());
     }
 
     /// Bytes reserved for reads in flight.
@@ -162,7 +164,7 @@ impl ResidentSet {
         debug_assert!(self.data[r as usize].is_none());
         self.reserved -= self.cost[r as usize];
         self.data[r as usize] = Some(payload);
-        self.list.access(r);
+        Eviction::insert(&mut self.list, r, ());
         if speculative {
             self.set_speculative(r, true);
         }
@@ -189,7 +191,7 @@ impl ResidentSet {
         }
         self.set_speculative(r, false);
         self.data[r as usize] = None;
-        self.list.remove(r);
+        Eviction::remove(&mut self.list, r);
         self.resident -= self.cost[r as usize];
         self.evicted.push(r);
     }
@@ -225,27 +227,28 @@ impl ResidentSet {
         if need > budget {
             return false;
         }
-        let target = budget - need;
         let only_speculative =
             purpose == Purpose::Prefetch && self.speculative_bytes + need > speculative_cap;
-        let mut victims = Vec::new();
-        let mut after = self.resident;
-        for (r, before_mark) in self.list.iter_from_head() {
-            if purpose == Purpose::Prefetch && !before_mark {
-                break;
+        let over = self.resident - (budget - need);
+        let verdict = |v: crate::evict::Victim<RepId>| {
+            if purpose == Purpose::Prefetch && v.recent {
+                Verdict::Stop
+            } else if self.is_pinned(v.key)
+                || (only_speculative && !self.speculative[v.key as usize])
+            {
+                Verdict::Skip
+            } else {
+                Verdict::Take
             }
-            if self.is_pinned(r) || (only_speculative && !self.speculative[r as usize]) {
-                continue;
-            }
-            victims.push(r);
-            after -= self.cost[r as usize];
-            if after <= target {
-                break;
-            }
-        }
-        if after > target {
+        };
+        let Some(victims) = choose(
+            self.list.victims(),
+            over,
+            |r| self.cost[r as usize],
+            verdict,
+        ) else {
             return false;
-        }
+        };
         for r in victims {
             self.remove(r, payload_len(r));
             self.evictions += 1;

@@ -2,9 +2,10 @@
 //! budget.
 //!
 //! Place holders, a hash table from meta-node to holder, and a FIFO **free
-//! list** of holders whose usage and reference counts are both 0. A flushed
-//! meta-node keeps its hash entry until its holder is taken for another one
-//! (**second chance**): freed holders join the list's end, space is taken
+//! list** of holders whose usage and reference counts are both 0 (an
+//! [`Lru`] of [`crate::evict`], in the order the holders were freed). A
+//! flushed meta-node keeps its hash entry until its holder is taken for
+//! another one (**second chance**): freed holders join the list's end, space is taken
 //! from its front, and a request for a flushed meta-node just takes its
 //! holder off the list.
 //!
@@ -32,7 +33,8 @@
 
 use std::collections::HashMap;
 
-use lru::LruCache;
+use crate::evict::Eviction;
+use crate::evict::lru::Lru;
 
 use super::NONE;
 
@@ -108,7 +110,7 @@ pub struct BufferManager {
     spare: Vec<u32>,
     table: HashMap<u32, u32>,
     /// Front = least recently freed.
-    free: LruCache<u32, ()>,
+    free: Lru<u32>,
     capacity: u64,
     /// Bytes of every holder with content (flushed ones too).
     used: u64,
@@ -121,7 +123,7 @@ impl BufferManager {
             holders: Vec::new(),
             spare: Vec::new(),
             table: HashMap::new(),
-            free: LruCache::unbounded(),
+            free: Lru::default(),
             capacity,
             used: 0,
         }
@@ -147,13 +149,13 @@ impl BufferManager {
 
     /// Whether `meta` is in real memory (found and not on the free list).
     pub fn in_real(&self, meta: u32) -> bool {
-        self.find(meta).is_some_and(|h| !self.free.contains(&h))
+        self.find(meta).is_some_and(|h| !self.free.contains(h))
     }
 
     /// The holder of `meta` if it is in real memory and its data is there.
     pub fn ready(&self, meta: u32) -> Option<u32> {
         self.find(meta).filter(|&h| {
-            !self.free.contains(&h) && self.holders[h as usize].content == Content::Ready
+            !self.free.contains(h) && self.holders[h as usize].content == Content::Ready
         })
     }
 
@@ -162,20 +164,21 @@ impl BufferManager {
         self.holders
             .iter()
             .enumerate()
-            .filter(|(h, x)| x.meta != NONE && x.usage == 0 && !self.free.contains(&(*h as u32)))
+            .filter(|(h, x)| x.meta != NONE && x.usage == 0 && !self.free.contains(*h as u32))
             .count()
     }
 
     /// Free-list holders, front first.
     pub fn free_list(&self) -> Vec<u32> {
-        self.free.iter().rev().map(|(&h, _)| h).collect()
+        self.free.victims().map(|v| v.key).collect()
     }
 
     /// Brings `meta` (`bytes` long) into real memory if it can (see
     /// [`Urgency`]).
     pub fn request(&mut self, meta: u32, bytes: u32, urgency: Urgency) -> Request {
         if let Some(h) = self.find(meta) {
-            return if self.free.pop(&h).is_some() {
+            return if self.free.contains(h) {
+                self.free.remove(h);
                 Request::SecondChance(h)
             } else {
                 Request::Present(h)
@@ -188,8 +191,8 @@ impl BufferManager {
         // Plan the evictions first; give up without touching anything.
         let mut room = self.capacity - self.used;
         let mut victims = Vec::new();
-        // Front of the free list first (the cache iterates newest first).
-        for (&h, ()) in self.free.iter().rev() {
+        // Front of the free list first: the least recently freed.
+        for h in self.free.victims().map(|v| v.key) {
             if room >= need {
                 break;
             }
@@ -214,7 +217,7 @@ impl BufferManager {
                 if x.meta != NONE
                     && x.usage == 0
                     && x.content == Content::Ready
-                    && !self.free.contains(&h)
+                    && !self.free.contains(h)
                 {
                     room += u64::from(x.bytes);
                     victims.push(h);
@@ -252,7 +255,7 @@ impl BufferManager {
     fn release(&mut self, h: u32) {
         let x = self.holders[h as usize];
         self.table.remove(&x.meta);
-        self.free.pop(&h);
+        self.free.remove(h);
         self.used -= u64::from(x.bytes);
         self.holders[h as usize] = EMPTY;
         self.spare.push(h);
@@ -287,7 +290,7 @@ impl BufferManager {
 
     /// Lowers `meta`'s reference count (no effect unless in real memory).
     pub fn ref_dec(&mut self, meta: u32) {
-        if let Some(h) = self.find(meta).filter(|h| !self.free.contains(h)) {
+        if let Some(h) = self.find(meta).filter(|&h| !self.free.contains(h)) {
             let x = &mut self.holders[h as usize];
             x.refs = x.refs.saturating_sub(1);
             self.maybe_flush(h);
@@ -311,8 +314,8 @@ impl BufferManager {
     /// data.
     pub fn maybe_flush(&mut self, h: u32) {
         let x = &self.holders[h as usize];
-        if x.usage == 0 && x.refs == 0 && x.content == Content::Ready && !self.free.contains(&h) {
-            self.free.push(h, ());
+        if x.usage == 0 && x.refs == 0 && x.content == Content::Ready && !self.free.contains(h) {
+            self.free.insert(h, ());
         }
     }
 
@@ -337,7 +340,7 @@ impl BufferManager {
             if x.meta != NONE && self.table.get(&x.meta) != Some(&h) {
                 return Err(format!("holder {h} not in the table"));
             }
-            let free = self.free.contains(&h);
+            let free = self.free.contains(h);
             if free && (x.usage > 0 || x.refs > 0) {
                 return Err(format!("holder {h} free while counted"));
             }

@@ -7,8 +7,8 @@
 
 use std::sync::Arc;
 
+use crate::evict::lru::LruMap;
 use glam::Vec3;
-use lru::LruCache;
 
 use super::file::{NODE_ENTRY, TRI_ENTRY, VdtError, VdtFile};
 use super::refine::{NodeStore, Placed, TriList};
@@ -29,7 +29,7 @@ pub struct PagerStats {
 #[derive(Debug)]
 pub struct Pager {
     file: Arc<VdtFile>,
-    pages: LruCache<u64, Box<[u8]>>,
+    pages: LruMap<u64, Box<[u8]>>,
     capacity: usize,
     pub stats: PagerStats,
 }
@@ -38,7 +38,7 @@ impl Pager {
     pub fn new(file: Arc<VdtFile>, capacity: usize) -> Self {
         Self {
             file,
-            pages: LruCache::unbounded(),
+            pages: LruMap::default(),
             capacity: capacity.max(1),
             stats: PagerStats::default(),
         }
@@ -51,9 +51,9 @@ impl Pager {
         while done < buf.len() {
             let at = offset + done as u64;
             let page = at / PAGE;
-            if !self.pages.contains(&page) {
+            if !self.pages.contains(page) {
                 if self.pages.len() >= self.capacity {
-                    self.pages.pop_lru();
+                    self.pages.pop_victim();
                 }
                 let start = page * PAGE;
                 let n = PAGE.min(len.saturating_sub(start)) as usize;
@@ -68,7 +68,7 @@ impl Pager {
             } else {
                 self.stats.hits += 1;
             }
-            let p = self.pages.get(&page).expect("page just made resident");
+            let p = self.pages.get(page).expect("page just made resident");
             let within = (at - page * PAGE) as usize;
             let k = (p.len() - within).min(buf.len() - done);
             if k == 0 {
@@ -82,7 +82,7 @@ impl Pager {
 
     /// Resident bytes (pages held).
     pub fn resident_bytes(&self) -> u64 {
-        self.pages.iter().map(|(_, p)| p.len() as u64).sum()
+        self.pages.values().map(|(_, p)| p.len() as u64).sum()
     }
 }
 

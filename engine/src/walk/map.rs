@@ -1,7 +1,7 @@
 //! A scene's walk section, read chunk by chunk as the walker needs them,
 //! with the chunks held bounded by bytes.
 
-use lru::LruCache;
+use crate::evict::lru::LruMap;
 
 use super::{Grid, SolidMap};
 use crate::format::FormatError;
@@ -14,7 +14,7 @@ pub struct WalkMap<S: ByteSource> {
     /// Where the section starts in the source.
     offset: u64,
     index: WalkIndex,
-    chunks: LruCache<(i32, i32), Chunk>,
+    chunks: LruMap<(i32, i32), Chunk>,
     held: usize,
     cap: usize,
     /// Chunks read so far.
@@ -43,7 +43,7 @@ impl<S: ByteSource> WalkMap<S> {
             source,
             offset,
             index,
-            chunks: LruCache::unbounded(),
+            chunks: LruMap::default(),
             held: 0,
             cap,
             reads: 0,
@@ -91,17 +91,17 @@ impl<S: ByteSource> SolidMap for WalkMap<S> {
         let Some(&rec) = self.index.find(cx, cz) else {
             return Ok(Column::default());
         };
-        if !self.chunks.contains(&(cx, cz)) {
+        if !self.chunks.contains((cx, cz)) {
             let chunk = self.read(rec)?;
             self.held += chunk.heap_bytes();
             self.chunks.put((cx, cz), chunk);
             while self.held > self.cap && self.chunks.len() > 1 {
-                if let Some((_, old)) = self.chunks.pop_lru() {
+                if let Some((_, old)) = self.chunks.pop_victim() {
                     self.held -= old.heap_bytes();
                 }
             }
         }
-        let chunk = self.chunks.get(&(cx, cz)).expect("inserted above");
+        let chunk = self.chunks.get((cx, cz)).expect("inserted above");
         Ok(chunk.column(c % CHUNK_CELLS, c / CHUNK_CELLS))
     }
 }

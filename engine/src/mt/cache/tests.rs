@@ -188,3 +188,8 @@ fn rule_3_keeps_nodes_below_the_top_down_layer_only() {
     assert_eq!(gone, vec![2, 3, 4]);
     assert_eq!(c.tuples(0), None);
 }
+
+#[test]
+fn passes_the_eviction_harness() {
+    crate::evict::harness::check(|_| NodeCache::new(CacheMode::PC), |k, _| (k % 3, k % 5));
+}

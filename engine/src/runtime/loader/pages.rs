@@ -16,20 +16,20 @@
 
 use std::sync::Arc;
 
-use lru::LruCache;
-
 use super::reads::{Reads, Turn};
+use crate::evict::lru::LruMap;
 use crate::format::RepRecord;
 use crate::runtime::Mode;
 use crate::runtime::footprint::Held;
 use crate::runtime::resident::Purpose;
 use crate::skeleton::RepId;
 
-/// Stored bytes of recently read pages, least recently used first out.
+/// Stored bytes of recently read pages, least recently used first out
+/// ([`LruMap`]).
 #[derive(Debug)]
 pub(super) struct PageCache {
     page_bytes: u64,
-    pages: LruCache<u64, Arc<[u8]>>,
+    pages: LruMap<u64, Arc<[u8]>>,
     bytes: u64,
     /// The most bytes the pages may hold this frame.
     cap: u64,
@@ -40,7 +40,7 @@ impl PageCache {
     pub(super) fn new(page_bytes: u64) -> Self {
         Self {
             page_bytes,
-            pages: LruCache::unbounded(),
+            pages: LruMap::default(),
             bytes: 0,
             cap: 0,
         }
@@ -60,13 +60,13 @@ impl PageCache {
     /// Whether every page of `offset..offset + len` is held (no use recorded).
     pub(super) fn covers(&self, offset: u64, len: u64) -> bool {
         let (a, b) = self.span(offset, len);
-        (a..=b).all(|p| self.pages.contains(&p))
+        (a..=b).all(|p| self.pages.contains(p))
     }
 
     /// The first page of `offset..offset + len` not held.
     pub(super) fn first_missing(&self, offset: u64, len: u64) -> Option<u64> {
         let (a, b) = self.span(offset, len);
-        (a..=b).find(|p| !self.pages.contains(p))
+        (a..=b).find(|p| !self.pages.contains(*p))
     }
 
     /// Copies `offset..offset + buf.len()` out of the held pages (each
@@ -79,7 +79,7 @@ impl PageCache {
         while at < buf.len() {
             let pos = offset + at as u64;
             let (page, within) = (pos / self.page_bytes, (pos % self.page_bytes) as usize);
-            let Some(data) = self.pages.get(&page) else {
+            let Some(data) = self.pages.get(page) else {
                 return false;
             };
             if within >= data.len() {
@@ -102,12 +102,12 @@ impl PageCache {
 
     /// Makes `page` the first to go (no use recorded).
     pub(super) fn demote(&mut self, page: u64) {
-        self.pages.demote(&page);
+        self.pages.demote(page);
     }
 
     /// Drops the least recently used page; its bytes, or `None` when empty.
     pub(super) fn evict_lru(&mut self) -> Option<u64> {
-        let (_, data) = self.pages.pop_lru()?;
+        let (_, data) = self.pages.pop_victim()?;
         self.bytes -= data.len() as u64;
         Some(data.len() as u64)
     }
@@ -133,13 +133,14 @@ impl PageCache {
     /// The byte count equals the pages' sizes, each at most a page.
     #[cfg(any(test, debug_assertions))]
     pub(super) fn validate(&self) -> Result<(), String> {
-        let sum: u64 = self.pages.iter().map(|(_, d)| d.len() as u64).sum();
+        self.pages.validate()?;
+        let sum: u64 = self.pages.values().map(|(_, d)| d.len() as u64).sum();
         if sum != self.bytes {
             return Err(format!("page bytes {} but pages hold {sum}", self.bytes));
         }
         if let Some((p, _)) = self
             .pages
-            .iter()
+            .values()
             .find(|(_, d)| d.len() as u64 > self.page_bytes)
         {
             return Err(format!("page {p} is longer than a page"));

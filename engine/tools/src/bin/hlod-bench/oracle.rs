@@ -19,6 +19,8 @@
 use std::collections::BTreeSet;
 
 use engine::disk::DiskModel;
+use engine::evict::Eviction;
+use engine::evict::belady::Belady;
 use engine::skeleton::{RepId, Skeleton};
 
 /// What the clairvoyant P_I read (bytes of whole pages).
@@ -93,18 +95,28 @@ impl Batch {
     }
 }
 
-/// The resident reps of a path's fronts, keyed by their next use; a pinned
-/// rep (drawn this frame) is resident and not in `by_next`. Also the
-/// demand fetching with Belady's eviction of `--bounds`.
+/// The resident reps of a path's fronts, in Belady's order (the rep used
+/// again last goes first: [`Belady`]); a pinned rep (drawn this frame) is
+/// resident and not a victim. Also the demand fetching with Belady's
+/// eviction of `--bounds`.
 pub(crate) struct Resident<'a> {
     skel: &'a Skeleton,
     budget: u64,
     used: u64,
-    by_next: BTreeSet<(u32, RepId)>,
-    key: Vec<Option<u32>>,
+    order: Belady,
     uses: Vec<Vec<u32>>,
     cursor: Vec<usize>,
 }
+
+/// Belady's hint for a next use (`u32::MAX`: none, the rep is used again
+/// last of all).
+fn hint(k: u32) -> u32 {
+    if k == u32::MAX { NEVER } else { k }
+}
+
+/// The next use of a rep never drawn again (after every frame; below
+/// [`Belady::NOW`]).
+const NEVER: u32 = Belady::NOW - 1;
 
 impl<'a> Resident<'a> {
     /// Nothing resident under `budget`; the uses of each rep by `fronts`.
@@ -120,8 +132,7 @@ impl<'a> Resident<'a> {
             skel,
             budget,
             used: 0,
-            by_next: BTreeSet::new(),
-            key: vec![None; n],
+            order: Belady::new(n),
             uses,
             cursor: vec![0; n],
         }
@@ -132,7 +143,7 @@ impl<'a> Resident<'a> {
     }
 
     pub(crate) fn contains(&self, r: RepId) -> bool {
-        self.key[r as usize].is_some()
+        self.order.contains(r)
     }
 
     /// The first frame after `t` that draws `r` (`u32::MAX`: none).
@@ -147,19 +158,15 @@ impl<'a> Resident<'a> {
 
     /// Pins `r` (drawn now) if resident.
     pub(crate) fn pin(&mut self, r: RepId) {
-        if let Some(k) = self.key[r as usize]
-            && k != u32::MAX
-        {
-            self.by_next.remove(&(k, r));
-            self.key[r as usize] = Some(u32::MAX);
+        if self.order.next_use(r).is_some() {
+            self.order.access(r, Belady::NOW);
         }
     }
 
     /// Unpins `r`, keyed by its next use after `t`.
     pub(crate) fn unpin(&mut self, r: RepId, t: usize) {
         let k = self.next_use(r, t);
-        self.key[r as usize] = Some(k);
-        self.by_next.insert((k, r));
+        self.order.access(r, hint(k));
     }
 
     /// Makes `r` resident with next use `k`, evicting reps used again
@@ -168,22 +175,20 @@ impl<'a> Resident<'a> {
     /// when the front alone exceeds the budget.
     pub(crate) fn admit(&mut self, r: RepId, k: u32) -> bool {
         let need = self.len(r);
+        let pin = k == u32::MAX;
         while self.used + need > self.budget {
-            match self.by_next.last() {
-                Some(&(kk, v)) if kk > k || k == u32::MAX => {
-                    self.by_next.pop_last();
-                    self.key[v as usize] = None;
+            let victim = self.order.victims().next().map(|v| v.key);
+            match victim {
+                Some(v) if pin || self.order.next_use(v).is_some_and(|kk| kk > k) => {
+                    self.order.remove(v);
                     self.used -= self.len(v);
                 }
-                None if k == u32::MAX => break,
+                None if pin => break,
                 _ => return false,
             }
         }
         self.used += need;
-        self.key[r as usize] = Some(k);
-        if k != u32::MAX {
-            self.by_next.insert((k, r));
-        }
+        self.order.insert(r, if pin { Belady::NOW } else { k });
         true
     }
 }

@@ -12,6 +12,7 @@
 //! is an index-linked slab over rep ids (the `lru` crate cannot insert at an
 //! arbitrary position).
 
+use super::{Eviction, Victim};
 use crate::skeleton::RepId;
 
 const NIL: u32 = u32::MAX;
@@ -136,6 +137,40 @@ impl InMemoryList {
     }
 }
 
+/// StartTail LRU as an [`Eviction`] policy: from the head, and `recent`
+/// past StartTail (accessed in this Stage II).
+impl Eviction for InMemoryList {
+    type Key = RepId;
+    type Hint = ();
+
+    fn insert(&mut self, key: RepId, (): ()) {
+        InMemoryList::access(self, key);
+    }
+
+    fn access(&mut self, key: RepId, (): ()) {
+        InMemoryList::access(self, key);
+    }
+
+    fn remove(&mut self, key: RepId) {
+        InMemoryList::remove(self, key);
+    }
+
+    fn victims(&self) -> Box<dyn Iterator<Item = Victim<RepId>> + '_> {
+        Box::new(self.iter_from_head().map(|(key, before_mark)| Victim {
+            key,
+            recent: !before_mark,
+        }))
+    }
+
+    fn contains(&self, key: RepId) -> bool {
+        InMemoryList::contains(self, key)
+    }
+
+    fn len(&self) -> usize {
+        InMemoryList::len(self)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -196,6 +231,11 @@ mod tests {
         l.remove(0);
         l.remove(0);
         assert_eq!(l.len(), 4);
+    }
+
+    #[test]
+    fn passes_the_shared_harness() {
+        crate::evict::harness::check(|n| InMemoryList::new(n as usize), |_, _| ());
     }
 
     proptest! {
