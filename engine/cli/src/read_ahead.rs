@@ -98,15 +98,38 @@ impl<H> ReadAhead<H> {
         self.live.iter().map(|l| l.end - l.start).sum()
     }
 
-    /// The most bytes the live ranges may hold; returns the handles to
-    /// cancel when that drops everything (a cap of 0).
+    /// The most bytes the live ranges may hold. A lower cap drops ranges
+    /// until they fit — the stale ones first, then the least urgent (the
+    /// last started), never one a read is waiting on — and returns the
+    /// handles to cancel; ranges queued that no longer fit go too.
     pub fn set_cap(&mut self, cap: u64) -> Vec<H> {
         self.cap = cap;
         if cap == 0 {
             self.queue.clear();
             return self.drop_where(|_| true);
         }
-        Vec::new()
+        self.queue.retain(|&(a, b)| b - a <= cap);
+        if self.held() <= cap {
+            return Vec::new();
+        }
+        let mut cancel = self.drop_where(|l| l.stale);
+        while self.held() > cap {
+            let Some(i) = self
+                .live
+                .iter()
+                .rposition(|l| !matches!(l.state, State::Taken))
+            else {
+                break;
+            };
+            let l = self.live.remove(i);
+            self.stats.dropped += 1;
+            match l.state {
+                State::Pending(h) => cancel.push(h),
+                State::Ready(b) => self.stats.dropped_bytes += b.len() as u64,
+                State::Taken => {}
+            }
+        }
+        cancel
     }
 
     /// The ranges read next, most urgent first: those already live stay,

@@ -149,3 +149,26 @@ fn a_range_the_reads_left_behind_gives_its_slot_up() {
     assert_eq!(ra.stats().dropped_bytes, 100);
     assert!(matches!(ra.lookup(60, &mut b), Lookup::Miss), "dropped");
 }
+
+#[test]
+fn a_lower_cap_drops_the_stale_then_the_least_urgent_ranges_to_fit() {
+    let mut ra = ReadAhead::new(4);
+    ra.set_cap(100);
+    let mut log = Vec::new();
+    ra.hint(&[(0, 20), (20, 40), (40, 60)], starter(&mut log));
+    // The first range leaves the hint (stale); a read waits on the second.
+    ra.hint(&[(20, 40), (40, 60), (60, 80)], starter(&mut log));
+    assert_eq!(ra.held(), 80);
+    let mut buf = [0u8; 4];
+    assert!(matches!(ra.lookup(20, &mut buf), Lookup::Wait { .. }));
+    // 50 bytes: the stale range goes first, then the last started.
+    let cancel = ra.set_cap(50);
+    assert_eq!(cancel, vec![0, 3]);
+    assert_eq!(ra.held(), 40);
+    // Below what a read waits on: that range stays, the others go.
+    assert_eq!(ra.set_cap(10), vec![2]);
+    assert_eq!(ra.held(), 20, "the range being read is kept");
+    assert_eq!(ra.stats().dropped, 3);
+    // Raised again, nothing is dropped; ranges start at the next hint.
+    assert!(ra.set_cap(100).is_empty());
+}
