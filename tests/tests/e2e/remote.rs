@@ -380,6 +380,36 @@ fn a_second_walk_reads_from_the_disk_cache_and_nothing_from_the_network() {
     assert_eq!(gets(), asked, "no GET on the second visit (only its HEAD)");
     assert_eq!(fronts, again);
 
+    // Reads within one block open and check its file once: the block the
+    // last read checked is kept for the next (here its file is gone by then).
+    let block = root.offset / engine_cli::disk_cache::BLOCK;
+    assert_eq!(
+        (root.offset + 31) / engine_cli::disk_cache::BLOCK,
+        block,
+        "a root rep within one block"
+    );
+    let h = SceneHandle::open_cached(Path::new(&url), Some(&spec)).unwrap();
+    let src = h.source(None).unwrap();
+    let mut bytes = [0u8; 32];
+    src.read_at(root.offset, &mut bytes[..16]).unwrap();
+    let (files, _) = cached_blocks(&spec.dir);
+    let file = files
+        .iter()
+        .find(|p| {
+            p.file_stem()
+                .is_some_and(|s| s == block.to_string().as_str())
+        })
+        .unwrap();
+    std::fs::remove_file(file).unwrap();
+    src.read_at(root.offset + 16, &mut bytes[16..]).unwrap();
+    assert_eq!(h.network().requests, 0, "served from the block kept");
+    let mut want = [0u8; 32];
+    FileSource::open(&local)
+        .unwrap()
+        .read_at(root.offset, &mut want)
+        .unwrap();
+    assert_eq!(bytes, want);
+
     // A damaged block is caught by its checksum and fetched again.
     let (files, _) = cached_blocks(&spec.dir);
     let mut b = std::fs::read(&files[0]).unwrap();
