@@ -268,10 +268,13 @@ fn serve_conn(
     client.set_nodelay(true)?;
     let mut reader = BufReader::new(client.try_clone()?);
     let mut client = client;
-    let upstream = TcpStream::connect(("127.0.0.1", upstream_port))?;
-    upstream.set_nodelay(true)?;
-    let mut up_reader = BufReader::new(upstream.try_clone()?);
-    let mut upstream = upstream;
+    let connect = || -> std::io::Result<(TcpStream, BufReader<TcpStream>)> {
+        let up = TcpStream::connect(("127.0.0.1", upstream_port))?;
+        up.set_nodelay(true)?;
+        let r = BufReader::new(up.try_clone()?);
+        Ok((up, r))
+    };
+    let (mut upstream, mut up_reader) = connect()?;
     while let Some(head) = read_head(&mut reader)? {
         requests.fetch_add(1, Ordering::Relaxed);
         let fault = queue
@@ -304,9 +307,21 @@ fn serve_conn(
             }
         }
         req.push_str("\r\n");
-        upstream.write_all(req.as_bytes())?;
-        let Some(resp) = read_head(&mut up_reader)? else {
-            return Ok(());
+        // nginx closes a kept-alive connection after its idle timeout or
+        // its request count: the request then goes on a new connection
+        // (dropping the client's connection instead, with its request
+        // unanswered, made the client retry: "error sending request").
+        let sent_up = upstream.write_all(req.as_bytes()).is_ok();
+        let resp = match sent_up.then(|| read_head(&mut up_reader)) {
+            Some(Ok(Some(resp))) => resp,
+            _ => {
+                (upstream, up_reader) = connect()?;
+                upstream.write_all(req.as_bytes())?;
+                let Some(resp) = read_head(&mut up_reader)? else {
+                    return Ok(());
+                };
+                resp
+            }
         };
         let len = if is_head { 0 } else { content_length(&resp) };
         let mut body = vec![0u8; len];
@@ -333,4 +348,52 @@ fn serve_conn(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An upstream that answers one request per connection and closes it
+    /// (as nginx does once a kept-alive connection idles too long).
+    fn one_per_connection() -> u16 {
+        let listener = TcpListener::bind(("127.0.0.1", 0)).unwrap();
+        let port = listener.local_addr().unwrap().port();
+        std::thread::spawn(move || {
+            for conn in listener.incoming().flatten() {
+                let mut r = BufReader::new(conn.try_clone().unwrap());
+                if read_head(&mut r).unwrap().is_some() {
+                    let mut c = conn;
+                    let _ = c.write_all(b"HTTP/1.1 200 OK\r\nContent-Length: 2\r\n\r\nok");
+                }
+            }
+        });
+        port
+    }
+
+    #[test]
+    fn the_proxy_answers_every_request_when_the_server_closes_its_connection() {
+        let proxy = FaultProxy::start(one_per_connection(), Duration::ZERO);
+        let port = proxy
+            .base
+            .rsplit(':')
+            .next()
+            .unwrap()
+            .parse::<u16>()
+            .unwrap();
+        let client = TcpStream::connect(("127.0.0.1", port)).unwrap();
+        let mut r = BufReader::new(client.try_clone().unwrap());
+        let mut c = client;
+        for _ in 0..3 {
+            c.write_all(b"GET /x HTTP/1.1\r\nHost: a\r\n\r\n").unwrap();
+            let head = read_head(&mut r)
+                .unwrap()
+                .expect("an answer on the same connection");
+            assert!(head[0].contains("200"), "{head:?}");
+            let mut body = vec![0u8; content_length(&head)];
+            r.read_exact(&mut body).unwrap();
+            assert_eq!(body, b"ok");
+        }
+        assert_eq!(proxy.requests.load(Ordering::Relaxed), 3);
+    }
 }
