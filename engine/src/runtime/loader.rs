@@ -13,11 +13,14 @@
 
 mod ahead;
 mod classify;
+mod costs;
 mod inbox;
 mod late;
 mod misses;
+mod order;
 mod outbox;
 mod pacing;
+mod page_cache;
 mod pages;
 mod plan;
 #[cfg(test)]
@@ -47,12 +50,12 @@ use classify::Classifier;
 use inbox::{Inbox, READY_POLL};
 use late::LateReads;
 use misses::MissAccount;
+use order::ReadQueue;
 pub(super) use outbox::capacity as reply_capacity;
 use outbox::{Outbox, RendererGone};
 use pacing::Pacing;
 use plan::Plan;
 use reads::{LoadError, ReadParams, Reads, Turn};
-use span::ReadQueue;
 use sweep::Sweep;
 
 /// The read planners: the binned candidates (CLASSIFY), the fronts ahead,

@@ -44,8 +44,8 @@
 use glam::{Quat, Vec3};
 
 use super::classify::Classifier;
+use super::order::ReadQueue;
 use super::plan::Plan;
-use super::span::ReadQueue;
 use crate::camera::{Pose, View};
 use crate::clock::Clock;
 use crate::runtime::resident::ResidentSet;

@@ -12,7 +12,7 @@
 //! draws them. Their bytes are demand bytes (`late_bytes`), reported with
 //! Stage II's.
 
-use super::span::ReadQueue;
+use super::order::ReadQueue;
 use crate::skeleton::RepId;
 
 /// The front reps past this frame's stall deadline, to read after it.

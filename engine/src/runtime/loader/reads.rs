@@ -15,9 +15,10 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::pages::PageCache;
+use super::costs::IoCosts;
+use super::order::{FileOrder, Partial};
+use super::page_cache::PageCache;
 use super::retry::{self, Retry};
-use super::span::{FileOrder, IoCosts, Partial};
 use crate::clock::Clock;
 use crate::format::{check_rep_crc, expand_payload};
 use crate::io::ByteSource;
