@@ -1,5 +1,7 @@
 //! The footprint as one value: the user's budget and the shares it is
-//! split into, derived and checked here and nowhere else.
+//! split into, derived here and nowhere else ([`Footprint::new`] first
+//! checks the parameters, the shares' ranges with the others:
+//! [`RuntimeParams::check`]).
 //!
 //! Out of core, the budget bounds everything the walk holds for geometry:
 //! - P_R's occluder store ([`crate::occlusion`]) takes `occluders` off the
@@ -66,21 +68,13 @@ impl Held {
 impl Footprint {
     /// The footprint `params` ask for, checked.
     pub fn new(params: &RuntimeParams) -> Result<Self, RuntimeError> {
-        let bad = |m: &str| Err(RuntimeError::Params(m.into()));
-        if !(params.page_share.is_finite() && (0.0..=0.9).contains(&params.page_share)) {
-            return bad("the pages' share of the budget must be in [0, 0.9]");
-        }
+        // The shares' ranges are parameters, checked with the others.
+        params.check()?;
         let speculative_share = params.prefetch.speculative_share;
-        if !(speculative_share > 0.0 && speculative_share <= 1.0) {
-            return bad("the speculative share must be in (0, 1]");
-        }
         if params.mode == Mode::Incore {
             return Ok(Self::InCore {
                 occluders: params.occlusion_bytes,
             });
-        }
-        if params.occlusion_bytes > params.budget_bytes / 2 {
-            return bad("the occluder store may take at most half the budget");
         }
         Ok(Self::Bounded(Shares {
             total: params.budget_bytes,

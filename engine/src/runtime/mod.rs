@@ -35,6 +35,7 @@ mod lookahead_tests;
 mod mts;
 #[cfg(test)]
 mod page_tests;
+mod paged;
 mod params;
 mod protocol;
 pub mod resident;
@@ -336,7 +337,7 @@ impl Walkthrough {
         };
         renderer.begin_frame(&self.view(draw_pose));
         let mut wait = 0.0;
-        let mut tf = trees::TreeFrame::default();
+        let mut tf = paged::TreeFrame::default();
         let mut unusable = Vec::new();
         let stats = loop {
             let reply = match self.replies.try_recv() {
@@ -418,7 +419,7 @@ impl Walkthrough {
         view: &View,
         stamp: u32,
         renderer: &mut dyn Renderer,
-        (m, tf): (&mut FrameMetrics, &mut trees::TreeFrame),
+        (m, tf): (&mut FrameMetrics, &mut paged::TreeFrame),
         unusable: &mut Vec<RepId>,
     ) {
         let Draw {

@@ -14,7 +14,7 @@
 
 use std::sync::Arc;
 
-use super::trees::{TreeError, TreeFrame};
+use super::paged::{TreeError, TreeFrame};
 use crate::camera::View;
 use crate::format::RepRecord;
 use crate::io::{ByteSource, WindowSource};

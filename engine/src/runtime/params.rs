@@ -198,9 +198,18 @@ pub enum RuntimeError {
 impl RuntimeParams {
     /// Rejects nonsense values.
     pub fn check(&self) -> Result<(), RuntimeError> {
-        // The budget and its shares: checked where they are derived.
-        super::footprint::Footprint::new(self)?;
         let bad = |s: &str| Err(RuntimeError::Params(s.to_string()));
+        // The footprint's shares ([`super::Footprint`] derives them).
+        if !(self.page_share.is_finite() && (0.0..=0.9).contains(&self.page_share)) {
+            return bad("the pages' share of the budget must be in [0, 0.9]");
+        }
+        let speculative_share = self.prefetch.speculative_share;
+        if !(speculative_share > 0.0 && speculative_share <= 1.0) {
+            return bad("the speculative share must be in (0, 1]");
+        }
+        if self.mode != Mode::Incore && self.occlusion_bytes > self.budget_bytes / 2 {
+            return bad("the occluder store may take at most half the budget");
+        }
         if !(self.tolerance_px > 0.0 && self.tolerance_px <= 1e5) {
             return bad("tolerance must be in (0, 100000] pixels");
         }

@@ -21,6 +21,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
+use super::paged::{TreeError, TreeFrame};
 use crate::camera::View;
 use crate::format::{RepMesh, RepRecord};
 use crate::io::{ByteSource, WindowSource};
@@ -62,26 +63,6 @@ pub(super) fn plan_pools(
         .collect()
 }
 
-/// Why a view-dependence tree cannot be used (its finest static LOD is
-/// drawn instead).
-#[derive(Debug, thiserror::Error)]
-pub(super) enum TreeError {
-    #[error("its header is longer than its rep record")]
-    Header,
-    #[error("its header and root records disagree with the rep record")]
-    Roots,
-    #[error(transparent)]
-    Io(#[from] std::io::Error),
-    #[error(transparent)]
-    Vdt(#[from] crate::vdt::file::VdtError),
-    #[error(transparent)]
-    Format(#[from] crate::format::FormatError),
-    #[error(transparent)]
-    Mt(#[from] crate::mt::file::MtFileError),
-    #[error(transparent)]
-    MtStore(#[from] crate::mt::store::MtStoreError),
-}
-
 fn plan_one(source: &dyn ByteSource, rec: &RepRecord, wanted: u64) -> Result<u64, TreeError> {
     let read = |len: u64| -> Result<Vec<u8>, TreeError> {
         if len > u64::from(rec.len) {
@@ -121,28 +102,6 @@ struct Tree {
     /// The cut as drawn (synthetic record and payload), rebuilt on change.
     mesh: Option<(RepRecord, Arc<[u8]>)>,
     loads: u64,
-}
-
-/// One frame's tree work, for the metrics.
-#[derive(Clone, Copy, Debug, Default)]
-pub(super) struct TreeFrame {
-    pub trees: u32,
-    pub adapt: u32,
-    pub tris: u64,
-    pub misses: u32,
-    pub metas_loaded: u32,
-    pub ms: f64,
-    /// Multi-Triangulations drawn, their cut arcs and triangles, reads and
-    /// partitions read this frame, misses and nodes in core.
-    pub mt_trees: u32,
-    pub mt_arcs: u32,
-    pub mt_tris: u64,
-    pub mt_adapt: u32,
-    pub mt_reads: u32,
-    pub mt_partitions: u32,
-    pub mt_read_bytes: u64,
-    pub mt_misses: u32,
-    pub mt_nodes: u32,
 }
 
 /// P_R's live trees.

@@ -16,8 +16,8 @@
 
 use super::reads::{Reads, Turn};
 use crate::format::RepRecord;
-use crate::runtime::Mode;
 use crate::runtime::footprint::Held;
+use crate::runtime::params::Mode;
 use crate::runtime::resident::Purpose;
 use crate::skeleton::RepId;
 

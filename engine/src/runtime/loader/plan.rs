@@ -1,7 +1,7 @@
 //! What the read planners (CLASSIFY, the lookahead, the sweep) consult.
 
 use crate::front::FrontIndex;
-use crate::runtime::RuntimeParams;
+use crate::runtime::params::RuntimeParams;
 use crate::skeleton::Skeleton;
 
 /// What the read planners consult: the skeleton, its front index, the

@@ -49,14 +49,19 @@ fn reads_of(source: Arc<dyn crate::ByteSource>, page_bytes: u64, block_bytes: us
     let total: u64 = skel.reps.iter().map(|r| r.resident_len()).sum();
     let p = RuntimeParams {
         page_bytes,
-        block_bytes,
         coalesce_max_gap: 1 << 20,
         ..params(Mode::Pre, 2 * total)
     };
     let fp = Footprint::new(&p).unwrap();
+    // Blocks below the parameters' 512-byte floor: the test scene's reps
+    // are a few hundred bytes, and a preemption needs several blocks.
+    let rp = ReadParams {
+        block_bytes,
+        ..ReadParams::of(&p)
+    };
     let pools = vec![Some(0); skel.reps.len()];
     let clock = Arc::new(ManualClock::new());
-    Reads::new(skel, source, &pools, (ReadParams::of(&p), fp), clock)
+    Reads::new(skel, source, &pools, (rp, fp), clock)
 }
 
 /// The reps in file order, the root's left out.

@@ -87,7 +87,7 @@ mod tests {
     #[test]
     fn the_sweep_goes_on_from_its_cursor_and_wraps_round() {
         let (_, s) = build(&[1, 1, 1, 1, 1], &[4, 0, 0, 0, 0]);
-        let mut params = crate::runtime::RuntimeParams::default();
+        let mut params = crate::runtime::params::RuntimeParams::default();
         params.prefetch.sweep_bytes = 1 << 20;
         let index = crate::front::FrontIndex::new(&s);
         let plan = Plan::of(&s, &index, &params);
