@@ -241,10 +241,11 @@ impl CachedSource {
     /// Block `i` from the cache, checked; `None` when absent or damaged.
     fn cached(&self, i: u64) -> Option<Arc<[u8]>> {
         let mut last = self.last.lock().unwrap_or_else(|p| p.into_inner());
+        // Its file was touched when it was read: no other block has been
+        // read through this source since.
         if let Some((j, b)) = last.as_ref()
             && *j == i
         {
-            self.cache.touch(&self.block_path(i));
             return Some(b.clone());
         }
         *last = None;

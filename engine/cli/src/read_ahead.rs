@@ -122,12 +122,7 @@ impl<H> ReadAhead<H> {
                 break;
             };
             let l = self.live.remove(i);
-            self.stats.dropped += 1;
-            match l.state {
-                State::Pending(h) => cancel.push(h),
-                State::Ready(b) => self.stats.dropped_bytes += b.len() as u64,
-                State::Taken => {}
-            }
+            cancel.extend(count_dropped(&mut self.stats, l));
         }
         cancel
     }
@@ -262,12 +257,7 @@ impl<H> ReadAhead<H> {
                     break;
                 };
                 let l = self.live.remove(i);
-                self.stats.dropped += 1;
-                match l.state {
-                    State::Pending(h) => cancel.push(h),
-                    State::Ready(bytes) => self.stats.dropped_bytes += bytes.len() as u64,
-                    State::Taken => {}
-                }
+                cancel.extend(count_dropped(&mut self.stats, l));
                 continue;
             }
             self.queue.pop_front();
@@ -299,15 +289,24 @@ impl<H> ReadAhead<H> {
                 keep.push(l);
                 continue;
             }
-            self.stats.dropped += 1;
-            match l.state {
-                State::Pending(h) => cancel.push(h),
-                State::Ready(b) => self.stats.dropped_bytes += b.len() as u64,
-                State::Taken => {}
-            }
+            cancel.extend(count_dropped(&mut self.stats, l));
         }
         self.live = keep;
         cancel
+    }
+}
+
+/// Counts range `l` as dropped (an answer's bytes as dropped unread); the
+/// handle of its request, to cancel, when it is still in flight.
+fn count_dropped<H>(stats: &mut AheadStats, l: Live<H>) -> Option<H> {
+    stats.dropped += 1;
+    match l.state {
+        State::Pending(h) => Some(h),
+        State::Ready(b) => {
+            stats.dropped_bytes += b.len() as u64;
+            None
+        }
+        State::Taken => None,
     }
 }
 

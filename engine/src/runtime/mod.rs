@@ -124,7 +124,8 @@ impl Walkthrough {
         params: RuntimeParams,
         clock: Arc<dyn crate::clock::Clock>,
     ) -> Result<Self, RuntimeError> {
-        params.check()?;
+        // The parameters are checked as the footprint is derived from them.
+        let fp = Footprint::new(&params)?;
         if skeleton.reps.is_empty() {
             return Err(RuntimeError::NoReps);
         }
@@ -147,7 +148,7 @@ impl Walkthrough {
         let (ready_tx, ready_rx) = bounded(1);
         // P_I's reps get the footprint less the occluder store.
         // Requests started ahead on a network source get their share.
-        let fp = Footprint::new(&params)?.with_read_ahead(source.read_ahead_max());
+        let fp = fp.with_read_ahead(source.read_ahead_max());
         source.set_read_ahead(fp.in_flight());
         let l = loader::Loader::new(
             skeleton.clone(),
