@@ -27,9 +27,8 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
-use lru::LruCache;
-
 use crate::remote::RemoteSource;
+use engine::evict::lru::LruMap;
 use engine::io::{ByteSource, Response};
 
 /// Bytes per cached block: a miss fetches the aligned blocks around a read
@@ -44,11 +43,39 @@ pub struct DiskCache {
     state: Mutex<State>,
 }
 
-#[derive(Debug)]
+/// A cached block: its scene folder (an index into `State::scenes`) and
+/// its index in the scene.
+type BlockKey = (u32, u64);
+
+#[derive(Debug, Default)]
 struct State {
-    /// Block files, least recently used first, with their sizes.
-    lru: LruCache<PathBuf, u64>,
+    /// The scene folders seen, numbered in the order they were.
+    scenes: Vec<PathBuf>,
+    /// The block files' sizes, evicted least recently used first.
+    blocks: LruMap<BlockKey, u64>,
     total: u64,
+}
+
+impl State {
+    /// The number of scene folder `dir`, numbered now if new.
+    fn scene(&mut self, dir: &Path) -> u32 {
+        match self.scenes.iter().position(|d| d == dir) {
+            Some(n) => n as u32,
+            None => {
+                self.scenes.push(dir.to_path_buf());
+                (self.scenes.len() - 1) as u32
+            }
+        }
+    }
+
+    fn path(&self, (scene, i): BlockKey) -> PathBuf {
+        block_path(&self.scenes[scene as usize], i)
+    }
+}
+
+/// Block `i`'s file in scene folder `dir`.
+fn block_path(dir: &Path, i: u64) -> PathBuf {
+    dir.join(format!("{i}.blk"))
 }
 
 impl DiskCache {
@@ -56,31 +83,31 @@ impl DiskCache {
     /// blocks already there count, oldest evicted first if over.
     pub fn open(dir: &Path, max_bytes: u64) -> io::Result<Arc<Self>> {
         std::fs::create_dir_all(dir)?;
+        let mut state = State::default();
         let mut files = Vec::new();
-        for scene in std::fs::read_dir(dir)? {
-            let scene = scene?;
+        let mut scenes: Vec<_> = std::fs::read_dir(dir)?.collect::<io::Result<_>>()?;
+        scenes.sort_by_key(|e| e.file_name());
+        for scene in scenes {
             if !scene.file_type()?.is_dir() {
                 continue;
             }
+            let n = state.scene(&scene.path());
             for f in std::fs::read_dir(scene.path())? {
                 let f = f?;
                 let p = f.path();
-                if p.extension().is_some_and(|e| e == "blk") {
+                let block = p.file_stem().and_then(|s| s.to_str()?.parse::<u64>().ok());
+                if let (Some(i), true) = (block, p.extension().is_some_and(|e| e == "blk")) {
                     let m = f.metadata()?;
-                    files.push((m.modified().ok(), p, m.len()));
+                    files.push((m.modified().ok(), (n, i), m.len()));
                 } else if p.extension().is_some_and(|e| e == "tmp") {
                     let _ = std::fs::remove_file(&p); // a copy torn by a crash
                 }
             }
         }
         files.sort();
-        let mut state = State {
-            lru: LruCache::unbounded(),
-            total: 0,
-        };
-        for (_, p, len) in files {
+        for (_, key, len) in files {
             state.total += len;
-            state.lru.put(p, len);
+            state.blocks.put(key, len);
         }
         let cache = Self {
             dir: dir.to_path_buf(),
@@ -104,35 +131,42 @@ impl DiskCache {
     fn evict_to(&self, room: u64) {
         let mut s = self.lock();
         while s.total > room {
-            let Some((p, len)) = s.lru.pop_lru() else {
+            let Some((key, len)) = s.blocks.pop_victim() else {
                 break;
             };
             s.total -= len;
-            let _ = std::fs::remove_file(p);
+            let _ = std::fs::remove_file(s.path(key));
         }
     }
 
-    /// Whether block file `p` is in the index (no system call: P_I asks
-    /// this for every candidate it times). A block another process wrote
-    /// since this one opened the cache is not: it is fetched again.
-    fn holds(&self, p: &Path) -> bool {
-        self.lock().lru.contains(p)
+    /// The number of scene folder `dir` in this cache's index.
+    fn scene(&self, dir: &Path) -> u32 {
+        self.lock().scene(dir)
     }
 
-    fn touch(&self, p: &Path) {
-        let _ = self.lock().lru.get(p);
+    /// Whether a block is in the index (no system call: P_I asks this for
+    /// every candidate it times). A block another process wrote since this
+    /// one opened the cache is not: it is fetched again.
+    fn holds(&self, key: BlockKey) -> bool {
+        self.lock().blocks.contains(key)
     }
 
-    fn forget(&self, p: &Path) {
+    fn touch(&self, key: BlockKey) {
+        let _ = self.lock().blocks.get(key);
+    }
+
+    /// Forgets a block and deletes its file `p`.
+    fn forget(&self, key: BlockKey, p: &Path) {
         let mut s = self.lock();
-        if let Some(len) = s.lru.pop(p) {
+        if let Some(len) = s.blocks.remove(key) {
             s.total -= len;
         }
         let _ = std::fs::remove_file(p);
     }
 
-    /// Stores a block file (bytes and CRC), atomically, within the bound.
-    fn store(&self, p: &Path, data: &[u8]) {
+    /// Stores a block as file `p` (bytes and CRC), atomically, within the
+    /// bound.
+    fn store(&self, key: BlockKey, p: &Path, data: &[u8]) {
         let len = data.len() as u64 + 4;
         if len > self.max_bytes {
             return;
@@ -151,7 +185,7 @@ impl DiskCache {
             return; // a full disk: the read itself went through
         }
         let mut s = self.lock();
-        if let Some(old) = s.lru.put(p.to_path_buf(), len) {
+        if let Some(old) = s.blocks.put(key, len) {
             s.total -= old;
         }
         s.total += len;
@@ -178,6 +212,8 @@ pub struct CachedSource {
     remote: RemoteSource,
     cache: Arc<DiskCache>,
     dir: PathBuf,
+    /// `dir`'s number in the cache's index.
+    scene: u32,
     /// The last cached block read and checked: the reps P_I reads in file
     /// order lie tens to a block, and each would otherwise open, read and
     /// check the whole block again (32 times 64 KiB for reps of 2 KiB). It
@@ -200,10 +236,12 @@ impl CachedSource {
         if !note.exists() {
             std::fs::write(&note, format!("{id}\n"))?;
         }
+        let scene = cache.scene(&dir);
         Ok(Self {
             remote,
             cache,
             dir,
+            scene,
             last: Arc::default(),
             hit: Arc::default(),
             fetched: Arc::default(),
@@ -226,12 +264,12 @@ impl CachedSource {
     }
 
     fn block_path(&self, i: u64) -> PathBuf {
-        self.dir.join(format!("{i}.blk"))
+        block_path(&self.dir, i)
     }
 
     /// Whether block `i` is cached (as far as this process knows).
     fn holds(&self, i: u64) -> bool {
-        self.cache.holds(&self.block_path(i))
+        self.cache.holds((self.scene, i))
     }
 
     fn block_len(&self, i: u64) -> usize {
@@ -267,10 +305,10 @@ impl CachedSource {
         if !ok {
             self.damaged.fetch_add(1, Ordering::Relaxed);
             tracing::warn!("{}: a damaged cached block, fetched again", p.display());
-            self.cache.forget(&p);
+            self.cache.forget((self.scene, i), &p);
             return None;
         }
-        self.cache.touch(&p);
+        self.cache.touch((self.scene, i));
         bytes.truncate(want);
         Some(bytes)
     }
@@ -315,7 +353,9 @@ impl ByteSource for CachedSource {
             self.remote.read_at(from, &mut got)?;
             self.fetched.fetch_add(got.len() as u64, Ordering::Relaxed);
             for (n, chunk) in got.chunks(BLOCK as usize).enumerate() {
-                self.cache.store(&self.block_path(i + n as u64), chunk);
+                let j = i + n as u64;
+                self.cache
+                    .store((self.scene, j), &self.block_path(j), chunk);
             }
             copy(buf, from, &got);
             i = j + 1;
@@ -381,5 +421,51 @@ impl ByteSource for CachedSource {
         }
         runs.dedup();
         self.remote.hint(&runs);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::{Duration, SystemTime};
+
+    #[test]
+    fn opening_counts_the_blocks_there_and_evicts_the_oldest_first() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+        std::fs::create_dir_all(&a).unwrap();
+        std::fs::create_dir_all(&b).unwrap();
+        let t0 = SystemTime::UNIX_EPOCH + Duration::from_secs(1_000_000);
+        // Four blocks of 100 bytes, written at t0 + 0, 1, 2, 3 s.
+        for (k, (d, i)) in [(&b, 7), (&a, 0), (&b, 2), (&a, 1)].into_iter().enumerate() {
+            let p = block_path(d, i);
+            std::fs::write(&p, [0u8; 100]).unwrap();
+            let f = std::fs::File::options().write(true).open(&p).unwrap();
+            f.set_modified(t0 + Duration::from_secs(k as u64)).unwrap();
+        }
+        let torn = a.join("3.123-0.tmp");
+        std::fs::write(&torn, [0u8; 10]).unwrap();
+        std::fs::write(a.join("scene.txt"), "a note").unwrap();
+
+        let cache = DiskCache::open(dir.path(), 250).unwrap();
+        assert_eq!(cache.bytes(), 200, "the two oldest went");
+        assert!(!block_path(&b, 7).exists() && !block_path(&a, 0).exists());
+        assert!(block_path(&b, 2).exists() && block_path(&a, 1).exists());
+        assert!(!torn.exists(), "a torn copy is removed");
+        let (na, nb) = (cache.scene(&a), cache.scene(&b));
+        assert!(cache.holds((na, 1)) && cache.holds((nb, 2)));
+        assert!(!cache.holds((na, 0)) && !cache.holds((nb, 7)));
+
+        // A use moves a block to the back; a store evicts from the front.
+        cache.touch((nb, 2));
+        cache.store((na, 5), &block_path(&a, 5), &[1u8; 96]);
+        assert!(!block_path(&a, 1).exists() && block_path(&b, 2).exists());
+        assert_eq!(cache.bytes(), 200);
+        cache.forget((nb, 2), &block_path(&b, 2));
+        assert_eq!(cache.bytes(), 100);
+        assert!(!block_path(&b, 2).exists());
+        let stored = std::fs::read(block_path(&a, 5)).unwrap();
+        assert_eq!(stored.len(), 100);
+        assert_eq!(stored[96..], crc32fast::hash(&[1u8; 96]).to_le_bytes());
     }
 }

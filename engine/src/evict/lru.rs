@@ -3,7 +3,9 @@
 //! whose reps are all read is spent). Over the `lru` crate's list.
 //! [`LruMap`] keeps values beside the order, for the stores that evict by
 //! it alone: P_I's pages, the occluder store, the walk section's chunks,
-//! a tree's virtual-memory pages and its buffer's free list.
+//! a tree's virtual-memory pages and its buffer's free list; outside the
+//! engine, the disk cache of a remote scene's blocks and the builder's
+//! decoded meshopt views.
 
 use std::collections::HashMap;
 use std::hash::Hash;
@@ -126,6 +128,12 @@ impl<K: Hash + Eq + Copy + std::fmt::Debug, V> LruMap<K, V> {
         self.order.demote(key);
     }
 
+    /// Removes `key` (not by eviction); its value, when it was held.
+    pub fn remove(&mut self, key: K) -> Option<V> {
+        self.order.remove(key);
+        self.map.remove(&key)
+    }
+
     pub fn len(&self) -> usize {
         self.map.len()
     }
@@ -189,6 +197,9 @@ mod tests {
         m.demote(1);
         assert_eq!(m.pop_victim(), Some((1, 10)));
         assert_eq!(m.put(3, 31), Some(30));
+        m.put(4, 40);
+        assert_eq!(m.remove(4), Some(40));
+        assert_eq!(m.remove(4), None);
         assert_eq!(m.len(), 1);
         assert_eq!(m.pop_victim(), Some((3, 31)));
         assert!(m.pop_victim().is_none() && m.is_empty());

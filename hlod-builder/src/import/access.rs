@@ -108,7 +108,7 @@ impl std::ops::Deref for Bytes<'_> {
     }
 }
 
-type ViewCache = lru::LruCache<usize, std::sync::Arc<Vec<u8>>>;
+type ViewCache = engine::evict::lru::LruMap<usize, std::sync::Arc<Vec<u8>>>;
 
 /// Decoded meshopt buffer views, most recently used kept up to a byte limit
 /// (a lazily opened scene decodes a view again after it was dropped).
@@ -123,7 +123,7 @@ impl Decoded {
     /// Keeps up to `limit` bytes of decoded views (`u64::MAX`: all).
     pub fn new(limit: u64) -> Self {
         Self {
-            views: std::sync::Mutex::new((lru::LruCache::unbounded(), 0)),
+            views: std::sync::Mutex::new((ViewCache::default(), 0)),
             limit,
         }
     }
@@ -134,7 +134,7 @@ impl Decoded {
         decode: impl FnOnce() -> Result<Vec<u8>, String>,
     ) -> Result<std::sync::Arc<Vec<u8>>, String> {
         let lock = || self.views.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(hit) = lock().0.get(&v) {
+        if let Some(hit) = lock().0.get(v) {
             return Ok(hit.clone());
         }
         let data = std::sync::Arc::new(decode()?);
@@ -145,7 +145,7 @@ impl Decoded {
             *bytes -= old.len() as u64;
         }
         while *bytes > self.limit && cache.len() > 1 {
-            if let Some((_, old)) = cache.pop_lru() {
+            if let Some((_, old)) = cache.pop_victim() {
                 *bytes -= old.len() as u64;
             }
         }
