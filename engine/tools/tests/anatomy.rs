@@ -1,5 +1,6 @@
-//! `hlod-bench --anatomy` on a built plant: the per-frame counts add up,
-//! a coarser tolerance draws fewer triangles, and nonsense is refused.
+//! `hlod-bench --anatomy` on a built plant: the per-frame counts add up
+//! (triangles by what they do, reps by whether they own a pixel), a
+//! coarser tolerance draws fewer triangles, and nonsense is refused.
 
 use std::process::Command;
 
@@ -70,6 +71,8 @@ fn the_fronts_triangles_are_counted_once_each_and_thin_out_with_the_tolerance() 
         let (hlod, was_sampled) = (r[5], r[6] == 1.0);
         let (visible, hidden, unsampled, off, sub, thin, covered, paged) =
             (r[7], r[8], r[9], r[10], r[11], r[12], r[13], r[14]);
+        let (seen_reps, seen_tris, seen_bytes, hidden_reps_tris, unsampled_reps_tris) =
+            (r[15], r[16], r[17], r[18], r[19]);
         tris[usize::from(tol > 1.0)] += t;
         assert!(
             hlod <= t && paged == 0.0 && (reps > 0.0) == (t > 0.0),
@@ -83,8 +86,24 @@ fn the_fronts_triangles_are_counted_once_each_and_thin_out_with_the_tolerance() 
             assert!(sub <= t && thin <= t && covered <= (W * H) as f64, "{r:?}");
             // A pixel has one owner: no more visible triangles than pixels.
             assert!(visible <= covered && (t == 0.0 || visible > 0.0), "{r:?}");
+            // Every rep owns a pixel, is hidden or is unsampled; the reps
+            // owning a pixel hold every visible triangle.
+            assert_eq!(
+                seen_tris + hidden_reps_tris + unsampled_reps_tris,
+                t,
+                "{r:?}"
+            );
+            assert!(
+                seen_reps >= 1.0 && seen_reps <= reps && seen_tris >= visible,
+                "{r:?}"
+            );
+            assert!(seen_bytes > 0.0 && seen_bytes <= r[4], "{r:?}");
         } else {
             assert_eq!(visible + hidden + unsampled + off + covered, 0.0, "{r:?}");
+            assert_eq!(
+                seen_reps + seen_tris + hidden_reps_tris + unsampled_reps_tris,
+                0.0
+            );
         }
     }
     assert_eq!(sampled, 8);

@@ -68,6 +68,17 @@ struct FrameRow {
     covered_px: u64,
     /// Triangles of paged reps (trees, MTs): counted, not rasterised.
     paged: u64,
+    /// Reps, triangles and resident bytes of the reps that own a pixel
+    /// (paged reps counted as owning one): the front a perfect occlusion
+    /// culler at rep granularity would leave.
+    seen_reps: u64,
+    seen_tris: u64,
+    seen_bytes: u64,
+    /// Triangles of the reps that own no pixel: some triangle covers a
+    /// pixel centre (the rep is hidden), or none does (it is too small or
+    /// thin to be sampled).
+    hidden_rep_tris: u64,
+    unsampled_rep_tris: u64,
 }
 
 struct Geo {
@@ -165,11 +176,11 @@ pub fn run(s: &Setup, tolerances: &[f32]) -> Result<(String, String)> {
     };
     let height = s.skeleton.nodes.iter().map(|n| n.depth).max().unwrap_or(0);
     let mut table = String::from(
-        "| ε px | reps median / max | triangles median / max | MiB median / max | % of rep data | tris per covered px | visible | hidden | unsampled | off-screen | smaller than a pixel | thin member | in HLODs | LOD tris at the finest level / 1 / 2 / ≥3 above | depth where refinement stops (median, p10–p90 of tris) |\n\
-         |---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n",
+        "| ε px | reps median / max | triangles median / max | MiB median / max | % of rep data | tris per covered px | visible | hidden | unsampled | off-screen | smaller than a pixel | thin member | in HLODs | LOD tris at the finest level / 1 / 2 / ≥3 above | depth where refinement stops (median, p10–p90 of tris) | reps owning a pixel: reps / triangles / MiB (median) | their % of rep data | tris in reps owning none: hidden / unsampled |\n\
+         |---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---:|---:|---:|\n",
     );
     let mut csv = String::from(
-        "tolerance_px,frame,reps,tris,bytes,hlod_tris,sampled,visible,hidden,unsampled,off_screen,sub_pixel,thin,covered_px,paged\n",
+        "tolerance_px,frame,reps,tris,bytes,hlod_tris,sampled,visible,hidden,unsampled,off_screen,sub_pixel,thin,covered_px,paged,seen_reps,seen_tris,seen_bytes,hidden_rep_tris,unsampled_rep_tris\n",
     );
     for &tol in tolerances {
         let mut rows = Vec::with_capacity(s.poses.len());
@@ -200,7 +211,7 @@ pub fn run(s: &Setup, tolerances: &[f32]) -> Result<(String, String)> {
             }
             let _ = writeln!(
                 csv,
-                "{tol},{f},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{tol},{f},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 row.reps,
                 row.tris,
                 row.bytes,
@@ -213,7 +224,12 @@ pub fn run(s: &Setup, tolerances: &[f32]) -> Result<(String, String)> {
                 row.sub_pixel,
                 row.thin,
                 row.covered_px,
-                row.paged
+                row.paged,
+                row.seen_reps,
+                row.seen_tris,
+                row.seen_bytes,
+                row.hidden_rep_tris,
+                row.unsampled_rep_tris
             );
             rows.push(row);
         }
@@ -223,7 +239,8 @@ pub fn run(s: &Setup, tolerances: &[f32]) -> Result<(String, String)> {
         table,
         "\nShares are of the rasterised frames' front triangles (every {}th frame; the hierarchy is {height} levels deep below the root). \
          Hidden: covers pixel centres, owns none in the front's own depth buffer. Unsampled: covers no pixel centre. \
-         Thin member: the rep's simplification step dropped geometry more than {THIN_RATIO}× farther from the rep than the rep lies from its input.",
+         Thin member: the rep's simplification step dropped geometry more than {THIN_RATIO}× farther from the rep than the rep lies from its input. \
+         Reps owning a pixel: the front a perfect occlusion culler at rep granularity would leave (median over the rasterised frames).",
         s.every.max(1)
     );
     Ok((table, csv))
@@ -260,13 +277,19 @@ fn rasterise(
         }
     }
     let mut owns = vec![false; tri_rep.len()];
+    let mut seen: Vec<bool> = front
+        .iter()
+        .map(|&r| reps.skel.reps[r as usize].is_paged())
+        .collect();
     for &o in buf.owners() {
         if o != NONE {
             owns[o as usize] = true;
+            seen[tri_rep[o as usize] as usize] = true;
             row.covered_px += 1;
         }
     }
     let mut thin_slot = vec![None; front.len()];
+    let mut sampled = vec![false; front.len()];
     for (k, d) in drawn.iter().enumerate() {
         if !d.on_screen {
             row.off_screen += 1;
@@ -281,6 +304,7 @@ fn rasterise(
             row.sub_pixel += 1;
         }
         let slot = tri_rep[k] as usize;
+        sampled[slot] |= d.on_screen && d.samples > 0;
         let thin = match thin_slot[slot] {
             Some(t) => t,
             None => {
@@ -290,6 +314,19 @@ fn rasterise(
             }
         };
         row.thin += u64::from(thin);
+    }
+    for (slot, &seen) in seen.iter().enumerate() {
+        let rec = &reps.skel.reps[front[slot] as usize];
+        let t = u64::from(rec.tri_count);
+        if seen {
+            row.seen_reps += 1;
+            row.seen_tris += t;
+            row.seen_bytes += rec.resident_len();
+        } else if sampled[slot] {
+            row.hidden_rep_tris += t;
+        } else {
+            row.unsampled_rep_tris += t;
+        }
     }
     row.sampled = true;
     Ok(())
@@ -339,8 +376,18 @@ fn table_row(s: &Setup, tol: f32, rows: &[FrameRow], depth_tris: &[u64]) -> Stri
         format!("{:.0}%", 100.0 * t as f64 / all_tris.max(1) as f64)
     };
     let levels = format!("{} / {} / {} / {}", level(0), level(1), level(2), level(3));
+    let seen = |f: &dyn Fn(&FrameRow) -> f64| median_max(sampled.iter().map(|r| f(r)).collect()).0;
+    let seen_mib = seen(&|r| r.seen_bytes as f64 / MIB);
+    let seen_cols = format!(
+        "{:.0} / {:.0} / {seen_mib:.1} | {:.2}% | {} / {}",
+        seen(&|r| r.seen_reps as f64),
+        seen(&|r| r.seen_tris as f64),
+        100.0 * seen_mib * MIB / s.data_bytes.max(1) as f64,
+        pct(sum(&|r| r.hidden_rep_tris)),
+        pct(sum(&|r| r.unsampled_rep_tris)),
+    );
     format!(
-        "| {tol} | {reps_med:.0} / {reps_max:.0} | {tris_med:.0} / {tris_max:.0} | {mib_med:.1} / {mib_max:.1} | {:.2}% | {per_px:.2} | {} | {} | {} | {} | {} | {} | {:.1}% | {levels} | {} ({}–{}) |\n",
+        "| {tol} | {reps_med:.0} / {reps_max:.0} | {tris_med:.0} / {tris_max:.0} | {mib_med:.1} / {mib_max:.1} | {:.2}% | {per_px:.2} | {} | {} | {} | {} | {} | {} | {:.1}% | {levels} | {} ({}–{}) | {seen_cols} |\n",
         100.0 * mib_med * MIB / s.data_bytes.max(1) as f64,
         pct(sum(&|r| r.visible)),
         pct(sum(&|r| r.hidden)),
