@@ -5,7 +5,8 @@
 # `none` renderer at 10M triangles/s, at BUDGET); then 3DTilesRendererJS, in
 # headless Chromium (WebGL on SwiftShader), walks the same path through the
 # export with its tile cache capped at the same bytes and its error target at
-# the same ε, in real time (viewer/web/walk.mjs). summary.md has one table.
+# the same ε, in real time (viewer/web/walk.mjs). summary.md has one table,
+# resident.svg the resident bytes of both along the path.
 # Usage: scripts/bench-3dtiles.sh SCENE BUDGET [PATH-KIND] [FRAMES] [SIZE]
 #   scripts/bench-3dtiles.sh de2.hlod 7.5% flythrough 300 640x360
 set -euo pipefail
@@ -62,4 +63,7 @@ IFS='|' read -r tn ti tm tdl <<< "$theirs"
   echo "| ours (pre, over HTTP) | $on | $oi | $om | $fetched | $ofirst |"
   echo "| 3DTilesRendererJS (Chromium, SwiftShader) | $tn | $ti | $tm | $tdl | $first |"
 } > "$out/summary.md"
+python3 scripts/resident-plot.py "$out/ours/pre.csv" "$out/theirs.csv" "$cap" "$out/resident.svg" \
+  "$name, $kind: resident bytes along the path (cap $(mib "$cap") MiB)"
 cat "$out/summary.md"
+echo "resident bytes along the path: $out/resident.svg"
