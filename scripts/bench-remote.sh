@@ -5,6 +5,9 @@
 # HTTP at each RTT, then twice through a disk cache at the last RTT (the first visit fills
 # it, the second reads from it). With MBIT=N in the environment, every RTT is also walked through
 # a link of N Mbit/s shared by its requests (the proxy's own cap, which needs no root, unlike tc tbf).
+# With S3=1, moto's S3 server (target/moto-venv, from scripts/setup.sh) takes nginx's place: the scene
+# is published into a bucket with `hlod-build publish` and walked as s3://scenes/NAME.hlod, through the
+# same proxies (credentials and endpoint from the environment, as a user would give them).
 # Tables go to out/remote/NAME/; summary.md gathers them.
 # Usage: scripts/bench-remote.sh SCENE BUDGET [PATH-KINDS] [RTTS-MS] [FRAMES] [hlod-bench options…]
 #   scripts/bench-remote.sh de2.hlod 7.5% flythrough,approach-orbit 0,20,50,100 300
@@ -21,15 +24,39 @@ extra=("${@:6}")
 name=$(basename "$scene" .hlod)
 out="out/remote/${OUT_NAME:-$name}"
 mkdir -p "$out"
-cargo build --release -q -p engine-tools --bin hlod-bench -p e2e-tests --bin latency-proxy
+cargo build --release -q -p engine-tools --bin hlod-bench -p e2e-tests --bin latency-proxy \
+  -p hlod-builder --bin hlod-build
 port=$((18000 + RANDOM % 1000))
-bash scripts/serve.sh "$(dirname "$scene")" "$port" > "$out/serve.log" 2>&1 &
-pids=($!)
+if [ "${S3:-0}" = 1 ]; then
+  venv=target/moto-venv/bin
+  [ -x "$venv/moto_server" ] || { echo "bench-remote: S3=1 needs scripts/setup.sh's moto" >&2; exit 2; }
+  "$venv/moto_server" -H 127.0.0.1 -p "$port" > "$out/moto.log" 2>&1 &
+  pids=($!)
+  export AWS_ACCESS_KEY_ID=testing AWS_SECRET_ACCESS_KEY=testing AWS_REGION=us-east-1 AWS_ALLOW_HTTP=true
+else
+  bash scripts/serve.sh "$(dirname "$scene")" "$port" > "$out/serve.log" 2>&1 &
+  pids=($!)
+fi
 trap 'kill "${pids[@]}" 2>/dev/null || true' EXIT
-for _ in $(seq 50); do
-  curl -sf -o /dev/null -r 0-0 "http://127.0.0.1:$port/$(basename "$scene")" && break
+for _ in $(seq 100); do
+  curl -s -o /dev/null "http://127.0.0.1:$port/" && break
   sleep 0.1
 done
+# The scene's URL through the proxy on port $1.
+scene_url() {
+  if [ "${S3:-0}" = 1 ]; then
+    echo "s3://scenes/$(basename "$scene")"
+  else
+    echo "http://127.0.0.1:$1/$(basename "$scene")"
+  fi
+}
+# hlod-bench's S3 endpoint is the proxy on port $1.
+endpoint() { [ "${S3:-0}" = 1 ] && export AWS_ENDPOINT_URL="http://127.0.0.1:$1"; true; }
+if [ "${S3:-0}" = 1 ]; then
+  "$venv/python" -c "import boto3; boto3.client('s3', endpoint_url='http://127.0.0.1:$port', \
+    aws_access_key_id='testing', aws_secret_access_key='testing', region_name='us-east-1').create_bucket(Bucket='scenes')"
+  AWS_ENDPOINT_URL="http://127.0.0.1:$port" target/release/hlod-build publish "$scene" "$(scene_url "$port")"
+fi
 IFS=, read -ra kind_list <<< "$kinds"
 IFS=, read -ra rtt_list <<< "$rtts"
 for r in "${rtt_list[@]}"; do
@@ -48,17 +75,20 @@ for kind in "${kind_list[@]}"; do
   bench "$scene" --path-kind "$kind" --modes incore,nopre,pre --out "$out/$kind/local" > /dev/null
   { echo; echo "## $kind: the local file"; cat "$out/$kind/local/summary.md"; } >> "$summary"
   for r in "${rtt_list[@]}"; do
-    url="http://127.0.0.1:$((port + 1000 + r))/$(basename "$scene")"
+    endpoint $((port + 1000 + r))
+    url=$(scene_url $((port + 1000 + r)))
     bench "$url" --path-kind "$kind" --modes nopre,pre --out "$out/$kind/rtt$r" > /dev/null
     { echo; echo "## $kind: RTT $r ms"; cat "$out/$kind/rtt$r/summary.md"; } >> "$summary"
     if [ -n "${MBIT:-}" ]; then
-      url="http://127.0.0.1:$((port + 2000 + r))/$(basename "$scene")"
+      endpoint $((port + 2000 + r))
+      url=$(scene_url $((port + 2000 + r)))
       bench "$url" --path-kind "$kind" --modes nopre,pre --out "$out/$kind/rtt$r-${MBIT}mbit" > /dev/null
       { echo; echo "## $kind: RTT $r ms, $MBIT Mbit/s"; cat "$out/$kind/rtt$r-${MBIT}mbit/summary.md"; } >> "$summary"
     fi
   done
   r=${rtt_list[-1]}
-  url="http://127.0.0.1:$((port + 1000 + r))/$(basename "$scene")"
+  endpoint $((port + 1000 + r))
+  url=$(scene_url $((port + 1000 + r)))
   rm -rf "$out/$kind/cache-dir"
   for visit in first second; do
     bench "$url" --path-kind "$kind" --modes pre --disk-cache "$out/$kind/cache-dir" \
