@@ -127,10 +127,18 @@ impl Reads {
     }
 
     /// Reads the missing pages of `rec` whole; false when one found no room
-    /// or the read failed.
+    /// or the read failed, or when the room for one page was made by
+    /// evicting another page of `rec` (beside the reps held, one page fits
+    /// and the rep straddles two: reading on would alternate between them
+    /// for ever).
     fn fill_pages(&mut self, rec: &RepRecord, purpose: Purpose) -> bool {
         let len = u64::from(rec.len);
+        let mut read = Vec::new();
         while let Some(page) = self.pages.first_missing(rec.offset, len) {
+            if read.contains(&page) {
+                return false;
+            }
+            read.push(page);
             let start = page * self.params.page_bytes;
             let n = self
                 .params

@@ -191,3 +191,40 @@ fn on_a_seek_bound_disk_a_page_read_once_serves_its_neighbours() {
     // A demand read that finds no other room takes the pages'.
     assert!(reads.yield_pages() && reads.pages.bytes() == 0);
 }
+
+#[test]
+fn a_rep_straddling_two_pages_where_one_fits_is_read_as_it_is() {
+    let (_, mem) = wide_compressed(64);
+    let clock = Arc::new(ManualClock::new());
+    let hdd = clocked(&mem, Duration::from_millis(10), 30e6, &clock);
+    let mut reads = reads_of(hdd, 4096, 512);
+    reads.clock = clock;
+    reads.costs.seek_s = 0.010;
+    reads.costs.per_byte_s = 1.0 / 30e6;
+    reads.plan_pages();
+    assert!(reads.pages_on());
+    // The test scene's reps each lie in one page; a record across the
+    // boundary of pages 1 and 2 stands for one that does not.
+    let mut rec = reads.skeleton.reps[1];
+    (rec.offset, rec.len) = (2 * 4096 - 64, 128);
+    // Beside what is held, one page fits: room for its second page could
+    // only be made by evicting its first (which read them in turn for ever).
+    let room = reads.rep_room(Purpose::Demand).unwrap();
+    reads.res.reserve(room - 4096);
+    let mut buf = vec![0u8; 128];
+    let turn = TestTurn::default();
+    assert_eq!(
+        reads.read_by_pages(&rec, &mut buf, Purpose::Demand, &turn),
+        0
+    );
+    assert!(reads.pages.bytes() <= 4096, "at most the page that fits");
+    // A record within one page is still read through it.
+    (rec.offset, rec.len) = (3 * 4096, 128);
+    assert_eq!(
+        reads.read_by_pages(&rec, &mut buf, Purpose::Demand, &turn),
+        128
+    );
+    let mut want = vec![0u8; 128];
+    mem.read_at(3 * 4096, &mut want).unwrap();
+    assert_eq!(buf, want);
+}
