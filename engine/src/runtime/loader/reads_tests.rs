@@ -149,19 +149,25 @@ fn a_read_through_a_gap_keeps_the_candidates_on_it_and_discards_the_rest() {
     assert_eq!(reads.costs.last_end(), Some(to));
 }
 
-#[test]
-fn on_a_seek_bound_disk_a_page_read_once_serves_its_neighbours() {
+/// Reads of the test scene by 4 KiB pages from a disk of 10 ms seeks and
+/// 30 MB/s (a seek costs 300 KB of transfer), its costs learnt; and the
+/// scene's bytes.
+fn paged_on_a_seek_bound_disk() -> (Reads, Arc<dyn crate::ByteSource>) {
     let (_, mem) = wide_compressed(64);
     let clock = Arc::new(ManualClock::new());
-    // 10 ms seeks, 30 MB/s: a seek costs 300 KB of transfer.
     let hdd = clocked(&mem, Duration::from_millis(10), 30e6, &clock);
     let mut reads = reads_of(hdd, 4096, 512);
     reads.clock = clock;
-    // The learnt costs of such a disk.
     reads.costs.seek_s = 0.010;
     reads.costs.per_byte_s = 1.0 / 30e6;
     reads.plan_pages();
     assert!(reads.pages_on(), "a seek costs more than a page");
+    (reads, mem)
+}
+
+#[test]
+fn on_a_seek_bound_disk_a_page_read_once_serves_its_neighbours() {
+    let (mut reads, _) = paged_on_a_seek_bound_disk();
     let order = in_file_order(&reads);
     let skel = reads.skeleton.clone();
     let rec = |r: RepId| skel.reps[r as usize];
@@ -194,15 +200,7 @@ fn on_a_seek_bound_disk_a_page_read_once_serves_its_neighbours() {
 
 #[test]
 fn a_rep_straddling_two_pages_where_one_fits_is_read_as_it_is() {
-    let (_, mem) = wide_compressed(64);
-    let clock = Arc::new(ManualClock::new());
-    let hdd = clocked(&mem, Duration::from_millis(10), 30e6, &clock);
-    let mut reads = reads_of(hdd, 4096, 512);
-    reads.clock = clock;
-    reads.costs.seek_s = 0.010;
-    reads.costs.per_byte_s = 1.0 / 30e6;
-    reads.plan_pages();
-    assert!(reads.pages_on());
+    let (mut reads, mem) = paged_on_a_seek_bound_disk();
     // The test scene's reps each lie in one page; a record across the
     // boundary of pages 1 and 2 stands for one that does not.
     let mut rec = reads.skeleton.reps[1];

@@ -277,14 +277,14 @@ fn rasterise(
         }
     }
     let mut owns = vec![false; tri_rep.len()];
-    let mut seen: Vec<bool> = front
+    let mut owns_pixel: Vec<bool> = front
         .iter()
         .map(|&r| reps.skel.reps[r as usize].is_paged())
         .collect();
     for &o in buf.owners() {
         if o != NONE {
             owns[o as usize] = true;
-            seen[tri_rep[o as usize] as usize] = true;
+            owns_pixel[tri_rep[o as usize] as usize] = true;
             row.covered_px += 1;
         }
     }
@@ -315,10 +315,10 @@ fn rasterise(
         };
         row.thin += u64::from(thin);
     }
-    for (slot, &seen) in seen.iter().enumerate() {
+    for (slot, &owns) in owns_pixel.iter().enumerate() {
         let rec = &reps.skel.reps[front[slot] as usize];
         let t = u64::from(rec.tri_count);
-        if seen {
+        if owns {
             row.seen_reps += 1;
             row.seen_tris += t;
             row.seen_bytes += rec.resident_len();
