@@ -2,7 +2,11 @@
 # The test command: set-up, formatting and lint checks, then every test of the workspace.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Each phase's time, so that a slow CI says where its minutes went.
+phase_start=$SECONDS
+phase() { echo "test: $1 took $((SECONDS - phase_start)) s"; phase_start=$SECONDS; }
 bash scripts/setup.sh
+phase "set-up"
 # A one-shot run gains nothing from incremental state, which is most of a
 # clean target directory's size.
 export CARGO_INCREMENTAL=0
@@ -47,6 +51,7 @@ if cargo clippy --version >/dev/null 2>&1; then
 else
   echo "test: clippy not installed, lint check skipped"
 fi
+phase "checks, format and lint"
 # setup.sh installed lavapipe and Xvfb: a GPU test that finds no adapter
 # here is a failure, not a skip (on other machines such tests are skipped
 # and listed in target/test-skips.txt).
@@ -63,6 +68,7 @@ export HLOD_REQUIRE_BROWSER=1
 if [ -f target/3d-tiles-validator/build/main.js ]; then export HLOD_REQUIRE_3DTILES=1; fi
 mkdir -p target && rm -f target/test-skips.txt
 cargo test --workspace
+phase "cargo test"
 if [ -s target/test-skips.txt ]; then
   echo "test: $(wc -l < target/test-skips.txt) tests skipped:"
   cat target/test-skips.txt
@@ -77,3 +83,5 @@ if cargo +nightly --version >/dev/null 2>&1; then
 else
   echo "test: no nightly toolchain: fuzz smoke run skipped (seeds and regressions ran in cargo test)"
 fi
+phase "fuzz smoke run"
+echo "test: all phases took $SECONDS s"
