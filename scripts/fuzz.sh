@@ -4,7 +4,8 @@
 # keeping its corpus in target/fuzz-corpus/TARGET. A crash, a panic, a
 # sanitizer report, a time-out (10 s) or an allocation beyond 2 GiB stops the
 # target and leaves the input in tests/fuzz/artifacts/TARGET/; it becomes a
-# regression test. Not run by CI except as a short smoke run (test.sh).
+# regression test. Not run by CI (its seeds and regressions run in cargo test);
+# `FUZZ_SMOKE=1 bash scripts/test.sh` adds a short smoke run.
 #
 #   bash scripts/fuzz.sh [RUNS]            all seven targets, one after another
 #   TARGETS="gltf_import" bash scripts/fuzz.sh 100000
