@@ -73,6 +73,7 @@ fn the_fronts_triangles_are_counted_once_each_and_thin_out_with_the_tolerance() 
             (r[7], r[8], r[9], r[10], r[11], r[12], r[13], r[14]);
         let (seen_reps, seen_tris, seen_bytes, hidden_reps_tris, unsampled_reps_tris) =
             (r[15], r[16], r[17], r[18], r[19]);
+        let (box_px, box_tile, rep_box_px) = (r[20], r[21], r[22]);
         tris[usize::from(tol > 1.0)] += t;
         assert!(
             hlod <= t && paged == 0.0 && (reps > 0.0) == (t > 0.0),
@@ -98,12 +99,21 @@ fn the_fronts_triangles_are_counted_once_each_and_thin_out_with_the_tolerance() 
                 "{r:?}"
             );
             assert!(seen_bytes > 0.0 && seen_bytes <= r[4], "{r:?}");
+            // A box hidden behind the drawn depth holds a rep that owns no
+            // pixel; whole tiles hide less than pixels.
+            assert!(box_px <= hidden_reps_tris + unsampled_reps_tris, "{r:?}");
+            assert!(
+                rep_box_px <= hidden_reps_tris + unsampled_reps_tris,
+                "{r:?}"
+            );
+            assert!(box_tile <= box_px, "{r:?}");
         } else {
             assert_eq!(visible + hidden + unsampled + off + covered, 0.0, "{r:?}");
             assert_eq!(
                 seen_reps + seen_tris + hidden_reps_tris + unsampled_reps_tris,
                 0.0
             );
+            assert_eq!(box_px + box_tile + rep_box_px, 0.0);
         }
     }
     assert_eq!(sampled, 8);

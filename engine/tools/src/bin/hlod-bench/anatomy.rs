@@ -79,6 +79,14 @@ struct FrameRow {
     /// thin to be sampled).
     hidden_rep_tris: u64,
     unsampled_rep_tris: u64,
+    /// Triangles of the reps whose box is hidden behind the front's own
+    /// depth buffer, as the engine's culler tests a box: the node's box per
+    /// pixel, per 4 x 4 tile (the culler's tiles), and the rep's own box
+    /// per pixel. What an occlusion culler testing boxes could leave out at
+    /// best, with every drawn triangle as an occluder.
+    box_px_tris: u64,
+    box_tile_tris: u64,
+    rep_box_px_tris: u64,
 }
 
 struct Geo {
@@ -176,11 +184,11 @@ pub fn run(s: &Setup, tolerances: &[f32]) -> Result<(String, String)> {
     };
     let height = s.skeleton.nodes.iter().map(|n| n.depth).max().unwrap_or(0);
     let mut table = String::from(
-        "| ε px | reps median / max | triangles median / max | MiB median / max | % of rep data | tris per covered px | visible | hidden | unsampled | off-screen | smaller than a pixel | thin member | in HLODs | LOD tris at the finest level / 1 / 2 / ≥3 above | depth where refinement stops (median, p10–p90 of tris) | reps owning a pixel: reps / triangles / MiB (median) | their % of rep data | tris in reps owning none: hidden / unsampled |\n\
-         |---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---:|---:|---:|\n",
+        "| ε px | reps median / max | triangles median / max | MiB median / max | % of rep data | tris per covered px | visible | hidden | unsampled | off-screen | smaller than a pixel | thin member | in HLODs | LOD tris at the finest level / 1 / 2 / ≥3 above | depth where refinement stops (median, p10–p90 of tris) | reps owning a pixel: reps / triangles / MiB (median) | their % of rep data | tris in reps owning none: hidden / unsampled | tris in reps whose box is hidden: node box per px / per 4×4 tile, rep box per px |\n\
+         |---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---:|---:|---:|---:|\n",
     );
     let mut csv = String::from(
-        "tolerance_px,frame,reps,tris,bytes,hlod_tris,sampled,visible,hidden,unsampled,off_screen,sub_pixel,thin,covered_px,paged,seen_reps,seen_tris,seen_bytes,hidden_rep_tris,unsampled_rep_tris\n",
+        "tolerance_px,frame,reps,tris,bytes,hlod_tris,sampled,visible,hidden,unsampled,off_screen,sub_pixel,thin,covered_px,paged,seen_reps,seen_tris,seen_bytes,hidden_rep_tris,unsampled_rep_tris,box_px_tris,box_tile_tris,rep_box_px_tris\n",
     );
     for &tol in tolerances {
         let mut rows = Vec::with_capacity(s.poses.len());
@@ -211,7 +219,7 @@ pub fn run(s: &Setup, tolerances: &[f32]) -> Result<(String, String)> {
             }
             let _ = writeln!(
                 csv,
-                "{tol},{f},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{tol},{f},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                 row.reps,
                 row.tris,
                 row.bytes,
@@ -229,7 +237,10 @@ pub fn run(s: &Setup, tolerances: &[f32]) -> Result<(String, String)> {
                 row.seen_tris,
                 row.seen_bytes,
                 row.hidden_rep_tris,
-                row.unsampled_rep_tris
+                row.unsampled_rep_tris,
+                row.box_px_tris,
+                row.box_tile_tris,
+                row.rep_box_px_tris
             );
             rows.push(row);
         }
@@ -240,7 +251,8 @@ pub fn run(s: &Setup, tolerances: &[f32]) -> Result<(String, String)> {
         "\nShares are of the rasterised frames' front triangles (every {}th frame; the hierarchy is {height} levels deep below the root). \
          Hidden: covers pixel centres, owns none in the front's own depth buffer. Unsampled: covers no pixel centre. \
          Thin member: the rep's simplification step dropped geometry more than {THIN_RATIO}× farther from the rep than the rep lies from its input. \
-         Reps owning a pixel: the front a perfect occlusion culler at rep granularity would leave (median over the rasterised frames).",
+         Reps owning a pixel: the front a perfect occlusion culler at rep granularity would leave (median over the rasterised frames). \
+         Box hidden: every pixel centre (or 4×4 tile) of the box's screen rectangle is nearer in the front's own depth buffer than the box's nearest corner, the engine culler's test with every drawn triangle as an occluder.",
         s.every.max(1)
     );
     Ok((table, csv))
@@ -315,9 +327,18 @@ fn rasterise(
         };
         row.thin += u64::from(thin);
     }
+    let (px, tiles) = (buf.depth_tiles(1), buf.depth_tiles(engine::occlusion::TILE));
     for (slot, &owns) in owns_pixel.iter().enumerate() {
         let rec = &reps.skel.reps[front[slot] as usize];
         let t = u64::from(rec.tri_count);
+        if !rec.is_paged() {
+            let n = &reps.skel.nodes[rec.node as usize];
+            let (mn, mx) = (Vec3::from(n.bbox_min), Vec3::from(n.bbox_max));
+            row.box_px_tris += u64::from(px.box_hidden(mn, mx)) * t;
+            row.box_tile_tris += u64::from(tiles.box_hidden(mn, mx)) * t;
+            let (mn, mx) = (Vec3::from(rec.bbox_min), Vec3::from(rec.bbox_max));
+            row.rep_box_px_tris += u64::from(px.box_hidden(mn, mx)) * t;
+        }
         if owns {
             row.seen_reps += 1;
             row.seen_tris += t;
@@ -379,12 +400,15 @@ fn table_row(s: &Setup, tol: f32, rows: &[FrameRow], depth_tris: &[u64]) -> Stri
     let seen = |f: &dyn Fn(&FrameRow) -> f64| median_max(sampled.iter().map(|r| f(r)).collect()).0;
     let seen_mib = seen(&|r| r.seen_bytes as f64 / MIB);
     let seen_cols = format!(
-        "{:.0} / {:.0} / {seen_mib:.1} | {:.2}% | {} / {}",
+        "{:.0} / {:.0} / {seen_mib:.1} | {:.2}% | {} / {} | {} / {}, {}",
         seen(&|r| r.seen_reps as f64),
         seen(&|r| r.seen_tris as f64),
         100.0 * seen_mib * MIB / s.data_bytes.max(1) as f64,
         pct(sum(&|r| r.hidden_rep_tris)),
         pct(sum(&|r| r.unsampled_rep_tris)),
+        pct(sum(&|r| r.box_px_tris)),
+        pct(sum(&|r| r.box_tile_tris)),
+        pct(sum(&|r| r.rep_box_px_tris)),
     );
     format!(
         "| {tol} | {reps_med:.0} / {reps_max:.0} | {tris_med:.0} / {tris_max:.0} | {mib_med:.1} / {mib_max:.1} | {:.2}% | {per_px:.2} | {} | {} | {} | {} | {} | {} | {:.1}% | {levels} | {} ({}–{}) | {seen_cols} |\n",
