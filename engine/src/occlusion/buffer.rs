@@ -66,6 +66,53 @@ impl Projector {
         let (w, h) = (self.view.width_px as f32, self.view.height_px as f32);
         Vec2::new(0.5 * w + c.x / c.z * self.sx, 0.5 * h - c.y / c.z * self.sy)
     }
+
+    /// The pixel centres of the box `min..max`'s screen rectangle and the
+    /// depth of its nearest corner, as the box test takes them: `None` when
+    /// the box reaches the near plane or its rectangle holds no pixel
+    /// centre of the viewport (nothing of it is drawn, but that is not
+    /// occlusion).
+    pub fn box_samples(&self, min: Vec3, max: Vec3) -> Option<BoxSamples> {
+        let near = self.view.near;
+        let mut lo = Vec2::splat(f32::INFINITY);
+        let mut hi = Vec2::splat(f32::NEG_INFINITY);
+        let mut z_near = f32::INFINITY;
+        for k in 0..8 {
+            let p = Vec3::new(
+                if k & 1 == 0 { min.x } else { max.x },
+                if k & 2 == 0 { min.y } else { max.y },
+                if k & 4 == 0 { min.z } else { max.z },
+            );
+            let c = self.camera(p);
+            if c.z < near * 1.001 {
+                return None;
+            }
+            let s = self.screen(c);
+            lo = lo.min(s);
+            hi = hi.max(s);
+            z_near = z_near.min(c.z);
+        }
+        let (w, h) = (self.view.width_px as f32, self.view.height_px as f32);
+        let px0 = (lo.x - 0.5).ceil().max(0.0);
+        let py0 = (lo.y - 0.5).ceil().max(0.0);
+        let px1 = (hi.x - 0.5).floor().min(w - 1.0);
+        let py1 = (hi.y - 0.5).floor().min(h - 1.0);
+        (px0 <= px1 && py0 <= py1).then_some(BoxSamples {
+            x: [px0 as u32, px1 as u32],
+            y: [py0 as u32, py1 as u32],
+            z_near,
+        })
+    }
+}
+
+/// A box's pixel centres on the screen ([`Projector::box_samples`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoxSamples {
+    /// First and last pixel column and row, inclusive.
+    pub x: [u32; 2],
+    pub y: [u32; 2],
+    /// Depth of the box's nearest corner along the view.
+    pub z_near: f32,
 }
 
 /// Clips a camera-space triangle ([`Projector::camera`]) to `z >= near`
@@ -394,46 +441,12 @@ impl OcclusionBuffer {
 
     /// Whether the box `min..max` is hidden behind the occluders.
     pub fn box_occluded(&mut self, min: Vec3, max: Vec3) -> bool {
-        let near = self.proj.view.near;
-        let mut lo = Vec2::splat(f32::INFINITY);
-        let mut hi = Vec2::splat(f32::NEG_INFINITY);
-        let mut z_near = f32::INFINITY;
-        for k in 0..8 {
-            let p = Vec3::new(
-                if k & 1 == 0 { min.x } else { max.x },
-                if k & 2 == 0 { min.y } else { max.y },
-                if k & 4 == 0 { min.z } else { max.z },
-            );
-            let c = self.proj.camera(p);
-            if c.z < near * 1.001 {
-                return false;
-            }
-            let s = self.proj.screen(c);
-            lo = lo.min(s);
-            hi = hi.max(s);
-            z_near = z_near.min(c.z);
-        }
-        let (w, h) = (
-            self.proj.view.width_px as f32,
-            self.proj.view.height_px as f32,
-        );
-        // The pixel centres inside the rectangle.
-        let px0 = (lo.x - 0.5).ceil().max(0.0);
-        let py0 = (lo.y - 0.5).ceil().max(0.0);
-        let px1 = (hi.x - 0.5).floor().min(w - 1.0);
-        let py1 = (hi.y - 0.5).floor().min(h - 1.0);
-        if !(px0 <= px1 && py0 <= py1) {
-            // No sample: nothing of it is drawn, but that is not occlusion.
+        let Some(b) = self.proj.box_samples(min, max) else {
             return false;
-        }
+        };
         self.pyramid();
-        let limit = z_near * (1.0 - DEPTH_MARGIN);
-        let r = [
-            px0 as u32 / TILE,
-            py0 as u32 / TILE,
-            px1 as u32 / TILE,
-            py1 as u32 / TILE,
-        ];
+        let limit = b.z_near * (1.0 - DEPTH_MARGIN);
+        let r = [b.x[0] / TILE, b.y[0] / TILE, b.x[1] / TILE, b.y[1] / TILE];
         // The coarsest level at which the range spans at most 2 x 2 texels.
         let mut level = 0;
         while level + 1 < self.levels.len()

@@ -192,38 +192,14 @@ impl DepthTiles {
     /// 1e-4; a box reaching the near plane or sampling no pixel centre is
     /// not hidden), but against this complete depth buffer.
     pub fn box_hidden(&self, min: Vec3, max: Vec3) -> bool {
-        let view = self.proj.view();
-        let near = view.near;
-        let (mut lo, mut hi) = (glam::Vec2::INFINITY, glam::Vec2::NEG_INFINITY);
-        let mut z_near = f32::INFINITY;
-        for k in 0..8 {
-            let p = Vec3::new(
-                if k & 1 == 0 { min.x } else { max.x },
-                if k & 2 == 0 { min.y } else { max.y },
-                if k & 4 == 0 { min.z } else { max.z },
-            );
-            let c = self.proj.camera(p);
-            if c.z < near * 1.001 {
-                return false;
-            }
-            let s = self.proj.screen(c);
-            lo = lo.min(s);
-            hi = hi.max(s);
-            z_near = z_near.min(c.z);
-        }
-        let (w, h) = (view.width_px as f32, view.height_px as f32);
-        let px0 = (lo.x - 0.5).ceil().max(0.0);
-        let py0 = (lo.y - 0.5).ceil().max(0.0);
-        let px1 = (hi.x - 0.5).floor().min(w - 1.0);
-        let py1 = (hi.y - 0.5).floor().min(h - 1.0);
-        if !(px0 <= px1 && py0 <= py1) {
+        let Some(b) = self.proj.box_samples(min, max) else {
             return false;
-        }
+        };
         // Nearer than z_near (1 - 1e-4) is 1/z above this.
-        let limit = 1.0 / (z_near * (1.0 - 1e-4));
+        let limit = 1.0 / (b.z_near * (1.0 - 1e-4));
         let t = self.tile;
-        for ty in py0 as u32 / t..=py1 as u32 / t {
-            for tx in px0 as u32 / t..=px1 as u32 / t {
+        for ty in b.y[0] / t..=b.y[1] / t {
+            for tx in b.x[0] / t..=b.x[1] / t {
                 if self.inv_z[(ty * self.tw + tx) as usize] <= limit {
                     return false;
                 }
