@@ -26,7 +26,7 @@ pub const TILE: u32 = 4;
 const FULL: u16 = u16::MAX;
 
 /// Relative depth margin of the box test.
-const DEPTH_MARGIN: f32 = 1e-4;
+pub const DEPTH_MARGIN: f32 = 1e-4;
 
 /// The camera's projection as the renderers use it (see `Pose::project`).
 #[derive(Clone, Copy, Debug)]

@@ -25,7 +25,7 @@
 mod buffer;
 mod store;
 
-pub use buffer::{BoxSamples, OcclusionBuffer, Projector, TILE, clip_near};
+pub use buffer::{BoxSamples, DEPTH_MARGIN, OcclusionBuffer, Projector, TILE, clip_near};
 pub use store::{OccluderStore, occluder_triangles};
 
 type Tris = Arc<[[Vec3; 3]]>;

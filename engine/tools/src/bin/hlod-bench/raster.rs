@@ -10,7 +10,7 @@
 use glam::Vec3;
 
 use engine::camera::View;
-use engine::occlusion::{Projector, clip_near};
+use engine::occlusion::{DEPTH_MARGIN, Projector, clip_near};
 
 /// No triangle owns the pixel.
 pub const NONE: u32 = u32::MAX;
@@ -188,15 +188,15 @@ pub struct DepthTiles {
 impl DepthTiles {
     /// Whether the box `min..max` is hidden as the engine's culler decides
     /// (`OcclusionBuffer::box_occluded`: every tile its screen rectangle
-    /// touches is nearer than its nearest corner, a relative margin of
-    /// 1e-4; a box reaching the near plane or sampling no pixel centre is
+    /// touches is nearer than its nearest corner, by the culler's relative
+    /// [`DEPTH_MARGIN`]; a box reaching the near plane or sampling no pixel centre is
     /// not hidden), but against this complete depth buffer.
     pub fn box_hidden(&self, min: Vec3, max: Vec3) -> bool {
         let Some(b) = self.proj.box_samples(min, max) else {
             return false;
         };
-        // Nearer than z_near (1 - 1e-4) is 1/z above this.
-        let limit = 1.0 / (b.z_near * (1.0 - 1e-4));
+        // Nearer than the culler's limit is 1/z above this.
+        let limit = 1.0 / (b.z_near * (1.0 - DEPTH_MARGIN));
         let t = self.tile;
         for ty in b.y[0] / t..=b.y[1] / t {
             for tx in b.x[0] / t..=b.x[1] / t {
