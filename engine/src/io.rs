@@ -11,11 +11,13 @@ use std::sync::Arc;
 use std::time::Duration;
 
 /// One answer of a source that times its requests
-/// ([`ByteSource::times_requests`]): its bytes, and the time from asking to
-/// its last byte.
+/// ([`ByteSource::times_requests`]): its bytes, the time from asking to its
+/// head (status and headers: the round trip and the server's time, whatever
+/// the size) and to its last byte.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Response {
     pub bytes: u64,
+    pub first_byte: Duration,
     pub took: Duration,
 }
 
@@ -366,6 +368,7 @@ mod tests {
     fn an_answer_log_keeps_the_newest_and_each_reader_its_place() {
         let a = |n: u64| Response {
             bytes: n,
+            first_byte: Duration::from_millis(1),
             took: Duration::from_millis(n),
         };
         let mut log = AnswerLog::new(3);

@@ -360,6 +360,9 @@ impl Conn {
                 )));
             }
         };
+        // The head is here: a round trip and the server's time, whatever the
+        // size (the cost model learns the round trip from it).
+        let first_byte = asked.elapsed();
         if res.meta.size != self.meta.size
             || (self.meta.e_tag.is_some() && res.meta.e_tag != self.meta.e_tag)
         {
@@ -404,6 +407,7 @@ impl Conn {
         }
         self.record(Response {
             bytes: buf.len() as u64,
+            first_byte,
             took: asked.elapsed(),
         });
         self.requests.fetch_add(1, Ordering::Relaxed);

@@ -4,8 +4,9 @@
 //! transfer rate — hundreds of KB on a seek-bound disk, tens on an SSD and
 //! nothing on a warm page cache. From a source that times its own requests
 //! (a network's, whose answers may arrive before P_I reads them) the same
-//! costs are learnt from the answers instead: the round trip takes the
-//! seek's place, and every request pays it ([`IoCosts::observe_response`]).
+//! costs are learnt from the answers instead: the round trip (the time to an
+//! answer's head) takes the seek's place, and every request pays it; the
+//! rate comes from the answers' bodies ([`IoCosts::observe_response`]).
 
 use std::time::Duration;
 
@@ -35,6 +36,9 @@ pub(super) struct IoCosts {
     /// those taken before they are learnt from.
     seen: u64,
     answers: Vec<crate::io::Response>,
+    /// The answers' bodies: bytes and the time from head to last byte,
+    /// fitted as the sequential disk reads are ([`SeqFit`]).
+    body: SeqFit,
 }
 
 /// Decayed sums over the reads that do not seek — count, bytes, seconds,
@@ -61,6 +65,11 @@ impl SeqFit {
         {
             *s = *s * Self::DECAY + x;
         }
+    }
+
+    /// The decayed number of reads observed.
+    fn count(&self) -> f64 {
+        self.sums[0]
     }
 
     /// `(a, b)`: the fitted cost per read and per byte (`a = 0` when the
@@ -138,26 +147,41 @@ impl IoCosts {
         self.by_responses
     }
 
-    /// Learns from one answer of `bytes` that took `took` from the request
-    /// to its last byte: the line `round trip + bytes / rate` fitted to
-    /// the answers ([`SeqFit`]) gives the round trip as the seek and the
-    /// rate as the transfer; a copy of an answer already here costs nothing
-    /// (`overhead_s` 0). Answers that shared the link with others in flight
-    /// took longer per byte: the rate learnt is a request's share of it.
-    pub(super) fn observe_response(&mut self, bytes: u64, took: Duration) {
-        let t = took.as_secs_f64();
+    /// Learns from one answer: the round trip (the seek's place) from the
+    /// time to its head, whatever its size, and the transfer rate from the
+    /// time its body took. Each is learnt apart from the other, so the mix
+    /// of sizes P_I asks for does not move them. (Before, the line `round
+    /// trip plus bytes over rate` was fitted to the answers' whole times:
+    /// once reads went by pages all answers were a page, the line could not be refitted,
+    /// and on loopback the first frames' answers decided a whole walk.) A
+    /// copy of an answer already here costs nothing (`overhead_s` 0).
+    /// Answers that shared the link with others in flight took longer per
+    /// byte: the rate learnt is a request's share of it.
+    pub(super) fn observe_response(&mut self, r: crate::io::Response) {
+        let t = r.took.as_secs_f64();
+        let head = r.first_byte.as_secs_f64().min(t);
         self.first_block_s = t.max(self.first_block_s * 0.995);
-        self.seq.observe(bytes as f64, t);
-        // Answers too alike in size to tell the round trip from the rate
-        // (all of one page's size) keep the line learnt before.
-        let Some((a, b)) = self.seq.line() else {
-            return;
-        };
-        (self.seek_s, self.per_byte_s, self.overhead_s) = (a, b, 0.0);
-        // The slowest round trip lately (an answer less its transfer): the
-        // estimate of a request's first block, as the seek's on a disk.
-        let rtt = (t - bytes as f64 * b).max(a);
-        self.seek_max_s = rtt.max(self.seek_max_s * 0.95);
+        if self.seek_s > 0.0 {
+            self.seek_s += Self::A * (head - self.seek_s);
+        } else {
+            self.seek_s = head;
+        }
+        // The slowest round trip lately: the estimate of a request's first
+        // block, as the seek's on a disk.
+        self.seek_max_s = head.max(self.seek_max_s * 0.95);
+        self.overhead_s = 0.0;
+        // A body's time has a fixed part too (a small body comes with the
+        // head, and still takes a poll or two to hand over): the slope of
+        // the line fitted to the bodies is the rate, or, where their sizes
+        // are too alike to fit one (all a page), their bytes over their
+        // times. (Bytes over times alone made a walk of 3 KiB reps see a
+        // link several times slower than one of pages, on the same
+        // loopback.) A few answers first, as the disk's line needs four.
+        self.body.observe(r.bytes as f64, (t - head).max(0.0));
+        let (_, b) = self.body.fit();
+        if self.body.count() >= 4.0 && b > 0.0 {
+            self.per_byte_s = b;
+        }
     }
 
     /// Learns from the answers `source` received since the last call (the
@@ -166,7 +190,7 @@ impl IoCosts {
         let mut answers = std::mem::take(&mut self.answers);
         source.responses_since(&mut self.seen, &mut answers);
         for r in answers.drain(..) {
-            self.observe_response(r.bytes, r.took);
+            self.observe_response(r);
         }
         self.answers = answers;
     }
@@ -304,15 +328,21 @@ mod tests {
     fn learns_a_round_trip_and_a_rate_from_answers() {
         let net = crate::MemSource::new(Vec::new());
         assert!(!IoCosts::for_source(&net).learns_from_responses());
-        let mut c = IoCosts {
+        let answers = || IoCosts {
             by_responses: true,
             ..IoCosts::default()
         };
-        // 50 ms a round trip, 12.5 MB/s (100 Mbit/s), answers of 1–128 KiB.
-        let took = |n: u64| Duration::from_secs_f64(0.050 + n as f64 / 12.5e6);
+        // 50 ms a round trip, 12.5 MB/s (100 Mbit/s): the head after the
+        // round trip, the body at the rate.
+        let answer = |n: u64| crate::io::Response {
+            bytes: n,
+            first_byte: Duration::from_millis(50),
+            took: Duration::from_secs_f64(0.050 + n as f64 / 12.5e6),
+        };
+        let mut c = answers();
         for i in 0..100u64 {
             let n = [1_000u64, 4_096, 20_000, 131_072][i as usize % 4];
-            c.observe_response(n, took(n));
+            c.observe_response(answer(n));
         }
         assert!((c.seek_s - 0.050).abs() < 1e-4, "{}", c.seek_s);
         assert!((c.per_byte_s * 12.5e6 - 1.0).abs() < 1e-3);
@@ -327,20 +357,47 @@ mod tests {
             (est - 1.03 * (0.050 + 4096.0 / 12.5e6)).abs() < 1e-3,
             "{est}"
         );
-        // Answers all of one size cannot tell the two apart: nothing is
-        // learnt but the slowest answer, the estimate of every read.
-        let mut one = IoCosts {
-            by_responses: true,
-            ..IoCosts::default()
-        };
-        for _ in 0..50 {
-            one.observe_response(131_072, took(131_072));
+        // Answers all of one size (a page each, once reads go by pages)
+        // teach the same: the round trip and the rate are learnt apart, so
+        // what P_I asks for does not move what it learns.
+        let mut pages = answers();
+        for _ in 0..100 {
+            pages.observe_response(answer(131_072));
         }
-        assert_eq!(
-            (one.seek_s, one.per_byte_s, one.request_bytes()),
-            (0.0, 0.0, 0)
-        );
-        let slowest = took(131_072).as_secs_f64();
-        assert_eq!(one.first_block_estimate(0, 4096, 65_536), slowest);
+        let near = |x: u64| x.abs_diff(r) < 1_000;
+        assert_eq!(pages.seek_s, c.seek_s);
+        assert!(near(pages.request_bytes()), "{}", pages.request_bytes());
+        // Small answers alone too: their bodies are short, but their bytes
+        // over their times still give the rate.
+        let mut small = answers();
+        for _ in 0..100 {
+            small.observe_response(answer(1_000));
+        }
+        assert!(near(small.request_bytes()), "{}", small.request_bytes());
+        // Bodies with a fixed cost each (20 µs to hand over, however small):
+        // small answers of mixed sizes, and pages, learn the same rate.
+        let slow = |n: u64| crate::io::Response {
+            took: answer(n).took + Duration::from_micros(20),
+            ..answer(n)
+        };
+        let (mut reps, mut paged) = (answers(), answers());
+        for i in 0..100u64 {
+            reps.observe_response(slow([700u64, 1_500, 3_000, 8_000][i as usize % 4]));
+            paged.observe_response(slow(131_072));
+        }
+        for x in [&reps, &paged] {
+            // Within 1 % (a page's 20 µs is 0.2 % of its transfer).
+            let got = x.request_bytes();
+            assert!(got.abs_diff(r) < r / 100, "{got}");
+        }
+        // Until a few answers came: no rate, and the slowest answer is the
+        // estimate of every read.
+        let mut fresh = answers();
+        for _ in 0..3 {
+            fresh.observe_response(answer(131_072));
+        }
+        assert_eq!(fresh.request_bytes(), 0);
+        let slowest = answer(131_072).took.as_secs_f64();
+        assert_eq!(fresh.first_block_estimate(0, 4096, 65_536), slowest);
     }
 }

@@ -24,15 +24,20 @@ use crate::skeleton::RepId;
 impl Reads {
     /// Whether pages are asked for and a seek, or a request's fixed cost
     /// (a network's round trip), costs at least a page's transfer (learnt).
+    /// Once on, pages stay on until that cost falls under half a page: where
+    /// it lies near a page (a network on loopback: 130–480 KiB learnt in
+    /// runs of the same walk) the choice would flip from frame to frame,
+    /// and each flip empties the pages read.
     fn paging(&self) -> bool {
         let p = self.params.page_bytes;
+        let worth = if self.pages_on() { p / 2 } else { p };
         p > 0
             && self.params.mode != Mode::Incore
             && (self
                 .costs
                 .max_gap(self.params.coalesce_max_gap.max(p), 64 << 10)
-                >= p
-                || self.costs.request_bytes() >= p)
+                >= worth
+                || self.costs.request_bytes() >= worth)
     }
 
     /// Decides, once a frame, whether reads go by pages and the pages'

@@ -226,3 +226,20 @@ fn a_rep_straddling_two_pages_where_one_fits_is_read_as_it_is() {
     mem.read_at(3 * 4096, &mut want).unwrap();
     assert_eq!(buf, want);
 }
+
+#[test]
+fn pages_stay_on_until_a_request_is_worth_under_half_a_page() {
+    let (mut reads, _) = paged_on_a_seek_bound_disk();
+    // A request worth 3 KB against 4 KiB pages: on already, they stay on.
+    let worth = |reads: &mut Reads, bytes: f64| {
+        reads.costs.seek_s = bytes / 30e6;
+        reads.plan_pages();
+        reads.pages_on()
+    };
+    assert!(worth(&mut reads, 3000.0));
+    // 1.5 KB: off, and the same 3 KB does not turn them on again; a page's
+    // worth does.
+    assert!(!worth(&mut reads, 1500.0));
+    assert!(!worth(&mut reads, 3000.0));
+    assert!(worth(&mut reads, 4200.0));
+}
