@@ -18,9 +18,16 @@ repo=$(cd "$(dirname "$0")/.." && pwd)
 tiles=$(cd "$1" && pwd)
 modules="$repo/target/web/node_modules"
 [ -d "$modules/3d-tiles-renderer" ] || { echo "serve-web.sh: $modules has no 3d-tiles-renderer (run scripts/setup.sh)" >&2; exit 1; }
-site=$(mktemp -d)
+# Under SERVE_TMP when given (the tests' log folder, removed with it).
+site=$(mktemp -d "${SERVE_TMP:-${TMPDIR:-/tmp}}/site.XXXXXX")
 trap 'rm -rf "$site"' EXIT
 ln -s "$repo/viewer/web/index.html" "$repo/viewer/web/main.js" "$site/"
 ln -s "$modules" "$site/node_modules"
 ln -s "$tiles" "$site/tiles"
-bash "$repo/scripts/serve.sh" "$site" "${2:-8080}"
+# nginx runs as this shell's child: a TERM or INT to the shell stops it too
+# (a caller that kills this script alone, as bench-3dtiles.sh does, left it
+# running), and the EXIT trap removes the site.
+bash "$repo/scripts/serve.sh" "$site" "${2:-8080}" &
+server=$!
+trap 'kill "$server" 2>/dev/null; wait "$server" 2>/dev/null; exit 143' TERM INT
+wait "$server"

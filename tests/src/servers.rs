@@ -7,6 +7,7 @@
 use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};
+use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -71,6 +72,10 @@ impl Nginx {
                 .stdin(Stdio::null())
                 .stdout(Stdio::null())
                 .stderr(Stdio::null())
+                // Its own process group: `serve-web.sh` runs nginx as a
+                // child of its shell, which a kill of the shell alone would
+                // leave running (two were left by every test run).
+                .process_group(0)
                 .spawn()
                 .expect("serve.sh starts");
             let t = Instant::now();
@@ -88,8 +93,7 @@ impl Nginx {
                 }
                 std::thread::sleep(Duration::from_millis(20));
             }
-            let _ = child.kill();
-            let _ = child.wait();
+            stop_group(&mut child);
         }
         panic!(
             "{test}: nginx did not start: {}",
@@ -109,9 +113,34 @@ impl Nginx {
 
 impl Drop for Nginx {
     fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        stop_group(&mut self.child);
     }
+}
+
+/// Stops `child` and every process of its group (it leads one): `TERM`
+/// (nginx shuts down, the scripts' clean-up traps run), then `KILL` to
+/// whatever is left after 5 s.
+fn stop_group(child: &mut Child) {
+    let group = format!("-{}", child.id());
+    let signal = |sig: &str| {
+        let _ = Command::new("kill")
+            .args([sig, "--", &group])
+            .stderr(Stdio::null())
+            .status();
+    };
+    signal("-TERM");
+    let t = Instant::now();
+    while t.elapsed() < Duration::from_secs(5) {
+        if child.try_wait().ok().flatten().is_some() {
+            // nginx may outlive the shell by a moment.
+            std::thread::sleep(Duration::from_millis(50));
+            signal("-KILL");
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    signal("-KILL");
+    let _ = child.wait();
 }
 
 /// How the proxy answers one request.
