@@ -8,12 +8,13 @@
 # the same ε, in real time (viewer/web/walk.mjs). summary.md has one table,
 # resident.svg the resident bytes of both along the path.
 # WALK_TIMEOUT (seconds, default 3600) bounds the browser's wait for its
-# first complete view.
+# first complete view; PARSE_JOBS (default 5, the library's) sets the page's
+# parses per frame.
 # Usage: scripts/bench-3dtiles.sh SCENE BUDGET [PATH-KIND] [FRAMES] [SIZE]
 #   scripts/bench-3dtiles.sh de2.hlod 7.5% flythrough 300 640x360
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ $# -ge 2 ] || { sed -n 2,13p "$0" >&2; exit 2; }
+[ $# -ge 2 ] || { sed -n 2,14p "$0" >&2; exit 2; }
 scene=$(realpath "$1")
 budget=$2
 kind=${3:-flythrough}
@@ -43,7 +44,7 @@ target/release/hlod-bench "http://127.0.0.1:$port/$(basename "$scene")" --path-k
 # The same bytes as the tile cache's cap.
 cap=$(awk -F, 'NR == 2 { print $14 }' "$out/ours/pre.csv")
 cp viewer/web/walk.mjs viewer/web/browser.mjs target/web/
-node target/web/walk.mjs "http://127.0.0.1:$((port + 500))/?error=$eps&cache=$(awk "BEGIN { print $cap / 1048576 }")" \
+node target/web/walk.mjs "http://127.0.0.1:$((port + 500))/?error=$eps&cache=$(awk "BEGIN { print $cap / 1048576 }")&parse=${PARSE_JOBS:-5}" \
   --path "$out/ours/path.txt" --size "$size" --fps 30 --out "$out/theirs.csv" \
   --timeout "${WALK_TIMEOUT:-3600}" > "$out/theirs.json"
 mib() { awk "BEGIN { printf \"%.1f\", $1 / 1048576 }"; }

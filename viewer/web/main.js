@@ -7,6 +7,7 @@
 //   tileset=URL    the tileset (default tiles/tileset.json, as scripts/serve-web.sh serves it)
 //   error=PX       screen-space error target, in pixels: our ε (default 2)
 //   cache=MIB      the tile cache's cap in MiB (default 512)
+//   parse=N        tiles parsed at once, and started per frame (default 5, the library's)
 //   camera=x,y,z,qx,qy,qz,qw,fov   a pose as in a path file (scene coordinates, y up)
 //   ui=0           no panel (screenshots)
 //
@@ -26,6 +27,7 @@ const params = new URLSearchParams(location.search);
 const tilesetUrl = params.get('tileset') || 'tiles/tileset.json';
 const errorTarget = Number(params.get('error') || 2);
 const cacheMiB = Number(params.get('cache') || 512);
+const parseJobs = Math.max(1, Number(params.get('parse') || 5));
 const panel = document.getElementById('panel');
 if (params.get('ui') === '0') panel.classList.add('hidden');
 
@@ -88,6 +90,9 @@ tiles.lruCache.maxBytesSize = cacheMiB * 2 ** 20;
 tiles.lruCache.minBytesSize = 0.75 * cacheMiB * 2 ** 20;
 tiles.lruCache.maxSize = Infinity;
 tiles.lruCache.minSize = 0;
+// The library's parse queue is shared by every renderer on the page; it
+// starts at most this many parses per animation frame.
+tiles.parseQueue.maxJobs = parseJobs;
 tiles.group.rotation.x = -Math.PI / 2;
 tiles.group.position.set(-origin[0], -origin[1], -origin[2]);
 tiles.addEventListener('load-model', ({ scene: model }) => {
