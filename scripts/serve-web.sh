@@ -19,7 +19,9 @@ tiles=$(cd "$1" && pwd)
 modules="$repo/target/web/node_modules"
 [ -d "$modules/3d-tiles-renderer" ] || { echo "serve-web.sh: $modules has no 3d-tiles-renderer (run scripts/setup.sh)" >&2; exit 1; }
 # Under SERVE_TMP when given (the tests' log folder, removed with it).
-site=$(mktemp -d "${SERVE_TMP:-${TMPDIR:-/tmp}}/site.XXXXXX")
+base=${SERVE_TMP:-${TMPDIR:-/tmp}}
+mkdir -p "$base"
+site=$(mktemp -d "$base/site.XXXXXX")
 trap 'rm -rf "$site"' EXIT
 ln -s "$repo/viewer/web/index.html" "$repo/viewer/web/main.js" "$site/"
 ln -s "$modules" "$site/node_modules"

@@ -27,7 +27,8 @@ const params = new URLSearchParams(location.search);
 const tilesetUrl = params.get('tileset') || 'tiles/tileset.json';
 const errorTarget = Number(params.get('error') || 2);
 const cacheMiB = Number(params.get('cache') || 512);
-const parseJobs = Math.max(1, Number(params.get('parse') || 5));
+const parseParam = Number(params.get('parse'));
+const parseJobs = parseParam >= 1 ? Math.floor(parseParam) : 5;
 const panel = document.getElementById('panel');
 if (params.get('ui') === '0') panel.classList.add('hidden');
 

@@ -152,8 +152,9 @@ impl IoCosts {
     /// time its body took. Each is learnt apart from the other, so the mix
     /// of sizes P_I asks for does not move them. (Before, the line `round
     /// trip plus bytes over rate` was fitted to the answers' whole times:
-    /// once reads went by pages all answers were a page, the line could not be refitted,
-    /// and on loopback the first frames' answers decided a whole walk.) A
+    /// once reads went by pages all answers were a page, the line could not
+    /// be refitted, and on loopback the first frames' answers decided a
+    /// whole walk.) A
     /// copy of an answer already here costs nothing (`overhead_s` 0).
     /// Answers that shared the link with others in flight took longer per
     /// byte: the rate learnt is a request's share of it.

@@ -25,7 +25,7 @@ impl Reads {
     /// Whether pages are asked for and a seek, or a request's fixed cost
     /// (a network's round trip), costs at least a page's transfer (learnt).
     /// Once on, pages stay on until that cost falls under half a page: where
-    /// it lies near a page (a network on loopback: 130–480 KiB learnt in
+    /// it lies near a page (a network on loopback: 170–480 KiB learnt in
     /// runs of the same walk) the choice would flip from frame to frame,
     /// and each flip empties the pages read.
     fn paging(&self) -> bool {
