@@ -34,6 +34,9 @@ struct DrawData {
     quant_extent: vec4<f32>,
     // rgb: debug tint; a: how much of it replaces the vertex colour.
     tint: vec4<f32>,
+    // Rows of the affine map that places a shared payload (an instanced
+    // mesh's level stored once) in the world; the identity otherwise.
+    place: array<vec4<f32>, 3>,
 };
 
 @group(0) @binding(0) var<uniform> globals: Globals;
@@ -65,11 +68,20 @@ fn dither_threshold(pixel: vec2<u32>) -> f32 {
 @vertex
 fn vs_main(v: VsIn, @builtin(instance_index) draw: u32) -> VsOut {
     let d = draws[draw];
-    let world = d.quant_min.xyz + v.position.xyz * d.quant_extent.xyz;
+    let local = vec4<f32>(d.quant_min.xyz + v.position.xyz * d.quant_extent.xyz, 1.0);
+    let world = vec3<f32>(dot(d.place[0], local), dot(d.place[1], local), dot(d.place[2], local));
+    // Normals by the cofactors of the linear part (the inverse transpose
+    // up to scale; the headlight is two-sided, so its sign does not matter).
+    let c0 = vec3<f32>(d.place[0].x, d.place[1].x, d.place[2].x);
+    let c1 = vec3<f32>(d.place[0].y, d.place[1].y, d.place[2].y);
+    let c2 = vec3<f32>(d.place[0].z, d.place[1].z, d.place[2].z);
+    let n = v.normal.x * cross(c1, c2) + v.normal.y * cross(c2, c0) + v.normal.z * cross(c0, c1);
+    let len = length(n);
     var out: VsOut;
     out.clip = globals.view_proj * vec4<f32>(world, 1.0);
     out.world = world;
-    out.normal = v.normal.xyz;
+    // A zero normal stays zero (the fragment then uses the face's).
+    out.normal = select(vec3<f32>(0.0), n / len, len > 1e-30);
     out.color = vec4<f32>(mix(v.color.rgb, d.tint.rgb, d.tint.a), v.color.a);
     if d.quant_extent.w > 2.5 {
         out.color = vec4<f32>(mix(out.color.rgb, XRAY_RGB, 0.6), XRAY_ALPHA);

@@ -12,10 +12,11 @@ compile_error!("the scene format is little-endian and this engine reads it by ca
 /// File magic: the first eight bytes of every scene file.
 pub const MAGIC: [u8; 8] = *b"OOCHLOD\0";
 /// The format version this build writes (and the newest it reads).
-/// Version 5 adds the walk section; version 4 the Multi-Triangulation rep kind; version 3 packs the
+/// Version 6 adds the placements of shared reps (after the rep records);
+/// version 5 the walk section; version 4 the Multi-Triangulation rep kind; version 3 packs the
 /// reps on [`REP_ALIGN`] boundaries; versions 1 and 2 padded every rep to a
 /// [`BLOCK`].
-pub const VERSION: u32 = 5;
+pub const VERSION: u32 = 6;
 /// The oldest version this build reads (no origin, no object section).
 pub const OLDEST_VERSION: u32 = 1;
 /// Alignment of the data section, the skeleton section and of every
@@ -82,7 +83,10 @@ pub struct FileHeader {
     /// solid space for walking ([`crate::format::walk`]).
     pub walk_offset: u64,
     pub walk_len: u64,
-    pub reserved: [u64; 6],
+    /// [`RepPlacement`] records after the rep records in the skeleton
+    /// section (version 6; zero before).
+    pub placement_count: u64,
+    pub reserved: [u64; 5],
 }
 const _: () = assert!(size_of::<FileHeader>() == 256);
 
@@ -204,7 +208,8 @@ impl FileHeaderV1 {
             walk_crc: 0,
             walk_offset: self.file_len,
             walk_len: 0,
-            reserved: [0; 6],
+            placement_count: 0,
+            reserved: [0; 5],
         }
     }
 }
@@ -241,7 +246,8 @@ impl FileHeaderV2 {
             walk_crc: 0,
             walk_offset: self.file_len,
             walk_len: 0,
-            reserved: [0; 6],
+            placement_count: 0,
+            reserved: [0; 5],
         }
     }
 }
@@ -406,6 +412,58 @@ impl RepRecord {
     /// view-dependence tree or an MT).
     pub fn extent(&self) -> u64 {
         u64::from(self.len) + u64::from(self.aux)
+    }
+}
+
+/// A mesh rep whose payload is shared (format version 6): an instanced
+/// mesh's level, stored once in the mesh's own coordinates and placed by
+/// every instance's rep with its transform. The rep's record keeps its own
+/// box (in scene coordinates), node, index and error; its payload range,
+/// checksum and counts are those of `source`, the first rep that places
+/// the payload (its own record, `source == rep`, names it in the payload's
+/// header).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RepPlacement {
+    pub rep: u32,
+    pub source: u32,
+    /// Rows of the affine map from the payload's coordinates to the
+    /// scene's: `p' = M · (p, 1)`.
+    pub transform: [[f32; 4]; 3],
+}
+const _: () = assert!(size_of::<RepPlacement>() == 56);
+
+impl RepPlacement {
+    /// `transform` applied to a point.
+    pub fn point(&self, p: [f32; 3]) -> [f32; 3] {
+        let m = &self.transform;
+        std::array::from_fn(|i| m[i][0] * p[0] + m[i][1] * p[1] + m[i][2] * p[2] + m[i][3])
+    }
+
+    /// A normal carried by the transform (its linear part's cofactor
+    /// matrix: the inverse transpose up to scale), unit length.
+    pub fn normal(&self, n: [f32; 3]) -> [f32; 3] {
+        let m = &self.transform;
+        let col = |j: usize| [m[0][j], m[1][j], m[2][j]];
+        let cross = |a: [f32; 3], b: [f32; 3]| {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        let (c0, c1, c2) = (col(0), col(1), col(2));
+        let cof = [cross(c1, c2), cross(c2, c0), cross(c0, c1)];
+        let v: [f32; 3] =
+            std::array::from_fn(|i| cof[0][i] * n[0] + cof[1][i] * n[1] + cof[2][i] * n[2]);
+        // The cofactors are det · M⁻ᵀ: a mirroring transform flips them.
+        let det = c0[0] * cof[0][0] + c0[1] * cof[0][1] + c0[2] * cof[0][2];
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt() * det.signum();
+        if l != 0.0 && l.is_finite() {
+            v.map(|c| c / l)
+        } else {
+            [0.0; 3]
+        }
     }
 }
 

@@ -75,6 +75,10 @@ pub struct DrawStyle {
     /// It stands in for a missing front rep (an ancestor).
     pub substitute: bool,
     pub fade: Fade,
+    /// Where a shared payload is placed: the payload is its `source` rep's
+    /// (a renderer keeps one copy of it, under that id, for every rep
+    /// that places it; P_I's evictions name it), drawn with `transform`.
+    pub placement: Option<crate::records::RepPlacement>,
 }
 
 impl DrawStyle {
@@ -83,7 +87,13 @@ impl DrawStyle {
         Self {
             substitute,
             fade: Fade::Opaque,
+            placement: None,
         }
+    }
+
+    /// The id under which the payload drawn as `rep` is held.
+    pub fn payload_rep(&self, rep: RepId) -> RepId {
+        self.placement.map_or(rep, |p| p.source)
     }
 }
 

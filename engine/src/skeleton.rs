@@ -12,7 +12,8 @@
 //! CHD pass through it.
 
 use crate::records::{
-    NONE, NodeRecord, REP_ALIGN, REP_HEADER_BYTES, RepKind, RepRecord, rep_payload_len,
+    NONE, NodeRecord, REP_ALIGN, REP_HEADER_BYTES, RepKind, RepPlacement, RepRecord,
+    rep_payload_len,
 };
 
 /// Global index of an object-rep in the skeleton's rep table.
@@ -23,6 +24,10 @@ pub type RepId = u32;
 pub struct Skeleton {
     pub nodes: Vec<NodeRecord>,
     pub reps: Vec<RepRecord>,
+    /// The placed reps, sorted by rep (format version 6): an instanced
+    /// mesh's levels stored once and drawn by every instance with its
+    /// transform. Empty when nothing is shared.
+    pub placements: Vec<RepPlacement>,
 }
 
 /// Why a hierarchy is not well formed.
@@ -49,9 +54,34 @@ pub enum ValidationError {
     },
     #[error("reps {a} and {b} overlap on disk")]
     Overlap { a: u32, b: u32 },
+    #[error("placement {index}: {reason}")]
+    Placement { index: usize, reason: String },
 }
 
 impl Skeleton {
+    /// Rep `r`'s placement, when its payload is shared.
+    pub fn placement(&self, r: RepId) -> Option<&RepPlacement> {
+        if self.placements.is_empty() {
+            return None;
+        }
+        let i = self.placements.binary_search_by_key(&r, |p| p.rep).ok()?;
+        Some(&self.placements[i])
+    }
+
+    /// The rep whose record and header describe `r`'s payload: `r` itself,
+    /// or the first rep that places the same shared payload. P_I loads,
+    /// holds and evicts payloads under this id, so a payload placed N
+    /// times is read, resident and counted once.
+    pub fn payload_rep(&self, r: RepId) -> RepId {
+        self.placement(r).map_or(r, |p| p.source)
+    }
+
+    /// Whether `r` is where its payload is stored and counted (not a
+    /// second placement of another rep's).
+    pub fn owns_payload(&self, r: RepId) -> bool {
+        self.payload_rep(r) == r
+    }
+
     /// The root node (node 0).
     pub fn root(&self) -> Option<&NodeRecord> {
         self.nodes.first()
@@ -62,7 +92,10 @@ impl Skeleton {
     /// rep (the compressed copy it needs while it is expanded): what a
     /// footprint of 100% means, so that a walk at 100% can load everything.
     pub fn in_core_bytes(&self) -> u64 {
-        let data: u64 = self.reps.iter().map(RepRecord::expanded_extent).sum();
+        let data: u64 = (self.reps.iter().enumerate())
+            .filter(|&(i, _)| self.owns_payload(i as RepId))
+            .map(|(_, r)| r.expanded_extent())
+            .sum();
         let scratch = self.reps.iter().map(RepRecord::load_scratch).max();
         data.saturating_add(scratch.unwrap_or(0))
     }
@@ -171,8 +204,64 @@ impl Skeleton {
             return Err(ValidationError::Empty);
         }
         self.validate_structure()?;
+        self.validate_placements()?;
         self.validate_reps(data_start, data_end)?;
         self.validate_errors_and_boxes()
+    }
+
+    /// Placements: sorted by rep, each of a mesh rep whose source places
+    /// itself, precedes it, and has the same payload range, checksum,
+    /// counts and kind; finite transforms.
+    fn validate_placements(&self) -> Result<(), ValidationError> {
+        let n = self.reps.len() as u64;
+        for (index, p) in self.placements.iter().enumerate() {
+            let bad = |reason: String| Err(ValidationError::Placement { index, reason });
+            if u64::from(p.rep) >= n || p.source > p.rep {
+                return bad(format!(
+                    "rep {} from source {} out of range",
+                    p.rep, p.source
+                ));
+            }
+            if index > 0 && self.placements[index - 1].rep >= p.rep {
+                return bad("not sorted by rep".into());
+            }
+            if !p.transform.iter().flatten().all(|x| x.is_finite()) {
+                return bad("transform not finite".into());
+            }
+            let (r, s) = (&self.reps[p.rep as usize], &self.reps[p.source as usize]);
+            if r.is_paged() {
+                return bad("a view-dependence tree or MT cannot be shared".into());
+            }
+            let same = (
+                r.offset,
+                r.len,
+                r.checksum,
+                r.tri_count,
+                r.vertex_count,
+                r.kind,
+            ) == (
+                s.offset,
+                s.len,
+                s.checksum,
+                s.tri_count,
+                s.vertex_count,
+                s.kind,
+            );
+            if !same {
+                return bad(format!("rep {} and its source {} differ", p.rep, p.source));
+            }
+            if p.source != p.rep
+                && self
+                    .placement(p.source)
+                    .is_none_or(|q| q.source != p.source)
+            {
+                return bad(format!(
+                    "source {} is not placed as its own source",
+                    p.source
+                ));
+            }
+        }
+        Ok(())
     }
 
     fn validate_structure(&self) -> Result<(), ValidationError> {
@@ -316,7 +405,7 @@ impl Skeleton {
                 }
             }
         }
-        for w in self.reps_in_file_order().windows(2) {
+        for w in self.payloads_in_file_order().windows(2) {
             let (a, b) = (&self.reps[w[0] as usize], &self.reps[w[1] as usize]);
             if a.offset + a.extent() > b.offset {
                 return Err(ValidationError::Overlap { a: w[0], b: w[1] });
@@ -330,6 +419,16 @@ impl Skeleton {
         let mut by_offset: Vec<RepId> = (0..self.reps.len() as RepId).collect();
         by_offset.sort_by_key(|&r| (self.reps[r as usize].offset, r));
         by_offset
+    }
+
+    /// The payloads in the order they are stored: each by the rep that
+    /// owns it ([`Skeleton::payload_rep`]), a shared one once.
+    pub fn payloads_in_file_order(&self) -> Vec<RepId> {
+        let mut v = self.reps_in_file_order();
+        if !self.placements.is_empty() {
+            v.retain(|&r| self.owns_payload(r));
+        }
+        v
     }
 
     fn validate_errors_and_boxes(&self) -> Result<(), ValidationError> {

@@ -131,7 +131,11 @@ fn build_impl(
             });
         }
     }
-    let skeleton = Skeleton { nodes, reps };
+    let skeleton = Skeleton {
+        nodes,
+        reps,
+        ..Skeleton::default()
+    };
     let meta = SceneMeta {
         object_count: leaf as u32,
         input_triangles: 2 * leaf as u64,
@@ -144,6 +148,56 @@ fn build_impl(
         .finish_with_objects(&skeleton, &meta, objects)
         .unwrap()
         .into_inner();
+    (bytes, skeleton)
+}
+
+/// [`build`] with every leaf's levels shared (format version 6): leaf
+/// `k`'s rep `r` places the payload of the first leaf's rep `r` (a unit
+/// quad in its own coordinates) by a translation of `k` along x, so that
+/// it draws what [`build`]'s does.
+pub fn build_instanced(rep_counts: &[u32], children: &[u32]) -> (Vec<u8>, Skeleton) {
+    let (bytes, plain) = build(rep_counts, children);
+    let mut writer = SceneWriter::new(Cursor::new(Vec::new())).unwrap();
+    let mut skeleton = plain.clone();
+    let file = crate::format::SceneFile::from_source(crate::io::MemSource::new(bytes)).unwrap();
+    let mut first_leaf: Option<u32> = None;
+    for (i, n) in plain.nodes.iter().enumerate() {
+        for r in n.first_rep..n.first_rep + n.rep_count {
+            let loc = if !n.is_leaf() {
+                writer.write_rep(&file.read_rep_bytes(r).unwrap()).unwrap()
+            } else {
+                let owner = *first_leaf.get_or_insert(i as u32);
+                let index = r - n.first_rep;
+                let source = plain.nodes[owner as usize].first_rep + index;
+                let loc = if source == r {
+                    let mesh = quad([0.0; 3], [1.0; 3]);
+                    writer.write_rep(&mesh.encode(i as u32, index)).unwrap()
+                } else {
+                    let o = skeleton.reps[source as usize];
+                    crate::format::RepLocation {
+                        offset: o.offset,
+                        len: o.len,
+                        checksum: o.checksum,
+                    }
+                };
+                let x = n.bbox_min[0];
+                skeleton.placements.push(crate::records::RepPlacement {
+                    rep: r,
+                    source,
+                    transform: [
+                        [1.0, 0.0, 0.0, x],
+                        [0.0, 1.0, 0.0, 0.0],
+                        [0.0, 0.0, 1.0, 0.0],
+                    ],
+                });
+                loc
+            };
+            let rec = &mut skeleton.reps[r as usize];
+            (rec.offset, rec.len, rec.checksum) = (loc.offset, loc.len, loc.checksum);
+        }
+    }
+    let meta = file.meta();
+    let bytes = writer.finish(&skeleton, &meta).unwrap().into_inner();
     (bytes, skeleton)
 }
 

@@ -24,8 +24,10 @@ use rayon::prelude::*;
 
 mod assemble;
 mod cells;
+mod groups;
 mod leaf;
 pub mod memory;
+mod placed;
 pub mod shard;
 mod source;
 
@@ -74,6 +76,11 @@ pub struct BuildParams {
     pub ifc_voids: bool,
     /// Cell side of the walk section, metres ([`crate::walkmap`]; 0: none).
     pub walk_cell: f32,
+    /// A mesh placed by several single-instance leaves has its levels
+    /// stored once, in its own coordinates, and placed by each leaf's reps
+    /// (format version 6); `false` stores every placement's levels in
+    /// scene coordinates (as before version 6; sharded builds always do).
+    pub share_instances: bool,
 }
 
 impl Default for BuildParams {
@@ -93,6 +100,7 @@ impl Default for BuildParams {
             compress_reps: true,
             ifc_voids: false,
             walk_cell: 0.1,
+            share_instances: true,
         }
     }
 }
@@ -394,6 +402,8 @@ struct Prepared {
     tree: Vec<crate::cluster::TreeNode>,
     item_tris: Vec<usize>,
     chains: assemble::Chains,
+    /// Repeated leaves' groups and their chains (with sharing on).
+    groups: assemble::Groups,
     mplan: memory::MemoryPlan,
 }
 
@@ -420,7 +430,15 @@ fn prepare<S: SceneSource>(
     stats.usable_triangles -= made.hidden_triangles;
     // 2. Topology.
     (opts.report)("clustering", 0, 0);
-    let tree = cluster(&made.cluster, params.branching, params.leaf_tris);
+    let tree = if params.share_instances {
+        cluster(
+            &groups::alone(&made.cluster, &made.items, params.leaf_tris),
+            params.branching,
+            params.leaf_tris,
+        )
+    } else {
+        cluster(&made.cluster, params.branching, params.leaf_tris)
+    };
     let item_tris: Vec<usize> = made.cluster.iter().map(|c| c.tris).collect();
     drop(made.cluster);
     let items = made.items;
@@ -428,9 +446,16 @@ fn prepare<S: SceneSource>(
     // 3. Chains of meshes placed by several single-instance leaves, computed
     // once in local space; other leaves compute theirs in their batch.
     (opts.report)("mesh LODs", 0, total);
+    // With sharing on, repeated leaves (a mesh's single-instance leaves
+    // among them) share one chain each instead.
+    let groups = if params.share_instances {
+        groups::chains(src, &tree, &items, params)?
+    } else {
+        assemble::Groups::default()
+    };
     let mut placed: Vec<usize> = tree
         .iter()
-        .filter(|n| n.items.len() == 1)
+        .filter(|n| n.items.len() == 1 && !params.share_instances)
         .filter_map(|n| match &items[n.items[0] as usize] {
             Item::Instance { mesh, .. } => Some(*mesh),
             Item::Chunk { .. } | Item::Tree { .. } => None,
@@ -454,9 +479,9 @@ fn prepare<S: SceneSource>(
         .collect();
     leaf_tris.sort_unstable_by(|a, b| b.cmp(a));
     stats.leaves = leaf_tris.len() as u64;
-    let chain_bytes: u64 = chains
-        .iter()
-        .flat_map(|(_, c)| c)
+    let chain_bytes: u64 = (chains.iter().map(|(_, c)| c))
+        .chain(groups.chains.iter().map(|(c, _)| c))
+        .flatten()
         .map(|l| l.mesh.heap_bytes())
         .sum();
     let demand = memory::Demand {
@@ -481,6 +506,7 @@ fn prepare<S: SceneSource>(
         tree,
         item_tris,
         chains,
+        groups,
         mplan,
     })
 }
@@ -509,6 +535,7 @@ fn assembly<'a, W: Write + std::io::Seek>(
         items: &prep.items,
         params,
         chains: &prep.chains,
+        groups: &prep.groups,
         nodes,
         node_reps: vec![Vec::new(); tree.len()],
         coarse: (0..tree.len()).map(|_| None).collect(),
@@ -518,6 +545,8 @@ fn assembly<'a, W: Write + std::io::Seek>(
         report: opts.report,
         done: 0,
         batch: prep.mplan.batch,
+        written: Default::default(),
+        pending: Vec::new(),
     })
 }
 
@@ -547,7 +576,11 @@ fn skeleton_of(mut nodes: Vec<NodeRecord>, node_reps: Vec<Vec<RepRecord>>) -> Sk
         nodes[i].rep_count = recs.len() as u32;
         reps.extend(recs);
     }
-    Skeleton { nodes, reps }
+    Skeleton {
+        nodes,
+        reps,
+        ..Skeleton::default()
+    }
 }
 
 /// The object section and the header's figures.
@@ -594,8 +627,12 @@ fn skeleton_stats(stats: &mut BuildStats, skeleton: &Skeleton, object_bytes: usi
     stats.reps = skeleton.reps.len() as u64;
     stats.output_triangles = skeleton.total_triangles();
     stats.skeleton_bytes = (std::mem::size_of_val(skeleton.nodes.as_slice())
-        + std::mem::size_of_val(skeleton.reps.as_slice())) as u64;
-    stats.data_bytes = skeleton.reps.iter().map(RepRecord::extent).sum();
+        + std::mem::size_of_val(skeleton.reps.as_slice())
+        + std::mem::size_of_val(skeleton.placements.as_slice())) as u64;
+    stats.data_bytes = (skeleton.reps.iter().enumerate())
+        .filter(|&(r, _)| skeleton.owns_payload(r as u32))
+        .map(|(_, r)| r.extent())
+        .sum();
     stats.peak_heap = crate::heap::peak();
 }
 
@@ -616,9 +653,11 @@ fn build_in_make_order<S: SceneSource, W: Write + std::io::Seek>(
         nodes,
         node_reps,
         leaf_runs,
+        pending,
         ..
     } = asm;
-    let skeleton = skeleton_of(nodes, node_reps);
+    let mut skeleton = skeleton_of(nodes, node_reps);
+    placed::resolve(&mut skeleton, &pending);
     let (meta, objects) = scene_tail(src.scene(), &stats, &leaf_runs);
     let walk = walk_tail(src, params, opts, &mut stats)?;
     let mut sink = writer.finish_with_sections(&skeleton, &meta, &objects, &walk)?;

@@ -65,6 +65,11 @@ pub(crate) struct BuildArgs {
     /// index codecs (larger files; for comparison).
     #[arg(long)]
     raw_reps: bool,
+    /// Store an instanced mesh's levels once per placement, in scene
+    /// coordinates, instead of once for all its placements (larger files
+    /// and footprints; for comparison).
+    #[arg(long)]
+    copy_instances: bool,
     /// The most heap the build may use, e.g. 4G or 512M (default: half of
     /// this machine's memory). The scene graph is built in cells sized to
     /// it; the output does not depend on it.
@@ -123,6 +128,7 @@ fn params_of(a: &BuildArgs) -> Result<BuildParams> {
         compress_reps: !a.raw_reps,
         ifc_voids: a.ifc_voids,
         walk_cell: a.walk_cell,
+        share_instances: !a.copy_instances,
     })
 }
 

@@ -85,6 +85,10 @@ pub fn relayout<S: ByteSource, W: Write + Seek>(
     let mut writer = SceneWriter::new(sink)?;
     let mut buf = Vec::new();
     for r in file_order(&skeleton) {
+        // A shared payload moves once, with its owner (placed below).
+        if !skeleton.owns_payload(r) {
+            continue;
+        }
         let rec = &mut skeleton.reps[r as usize];
         // A tree rep moves whole: its in-core part and its paged part.
         buf.resize(rec.extent() as usize, 0);
@@ -110,6 +114,7 @@ pub fn relayout<S: ByteSource, W: Write + Seek>(
         };
         (rec.offset, rec.len, rec.checksum) = (loc.offset, loc.len, loc.checksum);
     }
+    follow_owners(&mut skeleton);
     writer.finish_with_sections(
         &skeleton,
         &src.meta(),
@@ -135,6 +140,9 @@ pub fn relayout_parts<S: ByteSource, W: Write + Seek>(
     let mut writer = SceneWriter::new(sink)?;
     let mut buf = Vec::new();
     for r in file_order(&skeleton) {
+        if !skeleton.owns_payload(r) {
+            continue;
+        }
         let rec = &mut skeleton.reps[r as usize];
         buf.resize(rec.extent() as usize, 0);
         sources[source_of_node[rec.node as usize]].read_at(rec.offset, &mut buf)?;
@@ -147,7 +155,18 @@ pub fn relayout_parts<S: ByteSource, W: Write + Seek>(
             writer.write_rep(&buf)?.offset
         };
     }
+    follow_owners(&mut skeleton);
     writer.finish_with_sections(&skeleton, meta, objects, walk)
+}
+
+/// Gives every rep that places a shared payload its owner's new range.
+fn follow_owners(skeleton: &mut Skeleton) {
+    for i in 0..skeleton.placements.len() {
+        let p = skeleton.placements[i];
+        let o = skeleton.reps[p.source as usize];
+        let rec = &mut skeleton.reps[p.rep as usize];
+        (rec.offset, rec.len, rec.checksum) = (o.offset, o.len, o.checksum);
+    }
 }
 
 /// [`relayout`] from file `input` to file `output`, written atomically.

@@ -472,9 +472,21 @@ fn info(file: &std::path::Path, verify: bool, tree: Option<usize>) -> Result<()>
             mt_cmd::info_line(&scene, r).with_context(|| format!("{}: rep {r}", file.display()))?
         );
     }
-    let mesh_reps = s.reps.iter().filter(|r| !r.is_paged());
+    // A shared payload is stored and resident once.
+    let mesh_reps = (s.reps.iter().enumerate())
+        .filter(|&(r, rec)| !rec.is_paged() && s.owns_payload(r as u32))
+        .map(|(_, rec)| rec);
     let stored: u64 = mesh_reps.clone().map(|r| u64::from(r.len)).sum();
     let resident: u64 = mesh_reps.clone().map(|r| r.resident_len()).sum();
+    if !s.placements.is_empty() {
+        let owners = (0..s.reps.len() as u32)
+            .filter(|&r| s.placement(r).is_some_and(|p| p.source == r))
+            .count();
+        println!(
+            "instancing: {} reps place {owners} shared payloads (stored once each)",
+            s.placements.len()
+        );
+    }
     println!(
         "mesh reps: {} stored ({:.2} B per input triangle with the skeleton and the object section: {} file), {} resident when expanded ({:.2}x)",
         human_bytes(stored),
@@ -496,10 +508,12 @@ fn info(file: &std::path::Path, verify: bool, tree: Option<usize>) -> Result<()>
             return Ok(());
         }
         println!(
-            "data: all {} reps read back and match their checksums; {} of {} mesh reps compressed, expanded at {:.0} MB/s ({} in {:.2} s on one core)",
+            "data: all {} reps read back and match their checksums; {} of {} mesh payloads compressed, expanded at {:.0} MB/s ({} in {:.2} s on one core)",
             s.reps.len(),
             v.compressed,
-            s.reps.len() - trees.len() - mts.len(),
+            (0..s.reps.len() as u32)
+                .filter(|&r| s.owns_payload(r) && !s.reps[r as usize].is_paged())
+                .count(),
             v.expanded_bytes as f64 / v.expand_s.max(1e-9) / 1e6,
             human_bytes(v.expanded_bytes),
             v.expand_s,
@@ -521,7 +535,8 @@ struct DataCheck {
 fn verify_data<S: engine::ByteSource>(scene: &engine::SceneFile<S>) -> Result<DataCheck> {
     let s = scene.skeleton();
     let mut v = DataCheck::default();
-    for r in 0..s.reps.len() as u32 {
+    // A shared payload is checked once, as its owner's.
+    for r in (0..s.reps.len() as u32).filter(|&r| s.owns_payload(r)) {
         let rec = &s.reps[r as usize];
         if rec.is_vdt() {
             scene.verify_tree(r)?;

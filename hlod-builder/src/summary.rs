@@ -30,7 +30,10 @@ pub fn stats_of<S: ByteSource>(scene: &SceneFile<S>) -> BuildStats {
             .sum(),
         output_triangles: s.total_triangles(),
         skeleton_bytes: h.skeleton_len,
-        data_bytes: s.reps.iter().map(|r| r.extent()).sum(),
+        data_bytes: (s.reps.iter().enumerate())
+            .filter(|&(r, _)| s.owns_payload(r as u32))
+            .map(|(_, r)| r.extent())
+            .sum(),
         file_bytes: h.file_len,
         seconds: f64::NAN,
         warnings: Vec::new(),

@@ -424,10 +424,10 @@ fn real_exports_build_or_fail_cleanly_and_warnings_print_either_way() {
     let info = hlod_build(&["info", "h.hlod"], d);
     let text = String::from_utf8_lossy(&info.stdout);
     assert!(
-        text.contains("format v5")
+        text.contains("format v6")
             && text.contains("walk section: ")
             && text.contains("B per input triangle")
-            && text.contains("mesh reps compressed")
+            && text.contains("mesh payloads compressed")
             && text.contains("origin 0 0 0")
             && text.contains("91 objects described")
             // gltfpack's quantization collapses 3,711 of the source's

@@ -181,7 +181,12 @@ fn publish_uploads_checked_parts_and_never_a_partial_object() {
     )
     .unwrap();
     let scene = d.join("plant.hlod");
-    build_file(&glb, &scene, &BuildParams::default(), false).unwrap();
+    // A copy per placement: a file of more than two parts.
+    let copy = BuildParams {
+        share_instances: false,
+        ..BuildParams::default()
+    };
+    build_file(&glb, &scene, &copy, false).unwrap();
     let bytes = std::fs::read(&scene).unwrap();
     assert!(
         bytes.len() > 10 << 20,
@@ -254,7 +259,7 @@ fn publish_uploads_checked_parts_and_never_a_partial_object() {
     )
     .unwrap();
     let scene2 = d.join("plant2.hlod");
-    build_file(&glb2, &scene2, &BuildParams::default(), false).unwrap();
+    build_file(&glb2, &scene2, &copy, false).unwrap();
     let proxy = corrupting_proxy(port, 1 << 20);
     let bad = publish(
         proxy,

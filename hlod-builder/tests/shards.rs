@@ -48,7 +48,12 @@ fn shards_merge_to_the_single_jobs_bytes() {
         triangles: 500_000,
     };
     write_plant(&p, &glb).unwrap();
-    let params = BuildParams::default();
+    // Shards store every placement's levels (the merge shares none), as a
+    // single job does with sharing off.
+    let params = BuildParams {
+        share_instances: false,
+        ..BuildParams::default()
+    };
     let single = d.join("single.hlod");
     build_file(&glb, &single, &params, false).unwrap();
     let want = std::fs::read(&single).unwrap();

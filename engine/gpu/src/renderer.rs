@@ -108,12 +108,23 @@ impl Slot {
 #[derive(Debug)]
 struct FrameDraw {
     rep: RepId,
+    /// The id its payload's slot is held under (a shared payload's source).
+    key: RepId,
+    /// Rows of the affine placing the payload (identity when not shared).
+    place: [[f32; 4]; 3],
     substitute: bool,
     fade: Fade,
     level: u16,
     kind: u16,
     payload: Arc<[u8]>,
 }
+
+/// The rows of the identity affine: a payload in scene coordinates.
+const IDENTITY_ROWS: [[f32; 4]; 3] = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+];
 
 /// Draws fronts with wgpu; see the module docs.
 #[derive(Debug)]
@@ -350,7 +361,7 @@ impl GpuRenderer {
         let draws: Vec<(RepId, Arc<[u8]>)> = self
             .frame_draws
             .iter()
-            .map(|d| (d.rep, d.payload.clone()))
+            .map(|d| (d.key, d.payload.clone()))
             .collect();
         self.repacking = true;
         for (rep, payload) in draws {
@@ -417,7 +428,7 @@ impl GpuRenderer {
             .frame_draws
             .iter()
             .enumerate()
-            .filter_map(|(i, d)| self.slots.get(&d.rep).map(|s| (i, *s)))
+            .filter_map(|(i, d)| self.slots.get(&d.key).map(|s| (i, *s)))
             .collect();
         draws.sort_unstable_by_key(|(i, s)| (s.alloc.chunk, s.index_u32, self.frame_draws[*i].rep));
         let mut data: Vec<DrawData> = draws
@@ -435,6 +446,7 @@ impl GpuRenderer {
                     quant_min: [s.quant_min[0], s.quant_min[1], s.quant_min[2], t],
                     quant_extent: [e[0], e[1], e[2], dir],
                     tint: self.cfg.colouring.tint(d.level, d.kind, d.substitute),
+                    place: d.place,
                 }
             })
             .collect();
@@ -587,7 +599,9 @@ impl GpuRenderer {
                 } else {
                     s.translucent
                 };
-                take.then(|| Vec3::from(s.quant_min) + half)
+                let place = &self.frame_draws[*i].place;
+                let c = (Vec3::from(s.quant_min) + half).extend(1.0);
+                take.then(|| Vec3::from_array(place.map(|row| glam::Vec4::from(row).dot(c))))
             }),
         )
     }
@@ -615,7 +629,9 @@ impl Renderer for GpuRenderer {
     }
 
     fn draw(&mut self, rep: RepId, record: &RepRecord, payload: &Arc<[u8]>, style: DrawStyle) {
-        let resident = match self.slots.get_mut(&rep) {
+        // A shared payload has one slot, under its source rep.
+        let key = style.payload_rep(rep);
+        let resident = match self.slots.get_mut(&key) {
             Some(s) => {
                 s.last_frame = self.frame_no;
                 true
@@ -626,15 +642,17 @@ impl Renderer for GpuRenderer {
             let h: RepHeader = bytemuck::pod_read_unaligned(&payload[..size_of::<RepHeader>()]);
             h.vertex_count == record.vertex_count && h.index_count == 3 * record.tri_count
         };
-        if !consistent || (!resident && !self.upload(rep, payload)) {
+        if !consistent || (!resident && !self.upload(key, payload)) {
             self.stats.bad_payloads += 1;
-            if self.warned.insert(rep) {
+            if self.warned.insert(key) {
                 tracing::warn!("rep {rep}: payload cannot be drawn (malformed or too large)");
             }
             return;
         }
         self.frame_draws.push(FrameDraw {
             rep,
+            key,
+            place: style.placement.map_or(IDENTITY_ROWS, |p| p.transform),
             substitute: style.substitute,
             fade: style.fade,
             level: record.index,

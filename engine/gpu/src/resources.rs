@@ -18,8 +18,10 @@ pub(crate) struct DrawData {
     pub quant_min: [f32; 4],
     pub quant_extent: [f32; 4],
     pub tint: [f32; 4],
+    /// Rows of the affine that places a shared payload (identity else).
+    pub place: [[f32; 4]; 3],
 }
-const _: () = assert!(size_of::<DrawData>() == 48);
+const _: () = assert!(size_of::<DrawData>() == 96);
 
 pub(crate) const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 

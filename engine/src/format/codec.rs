@@ -128,6 +128,7 @@ pub(super) fn decode_compressed(
         quant_scale: h.quant_scale,
         vertices,
         indices,
+        placement: None,
     })
 }
 

@@ -37,7 +37,7 @@ pub use reader::{
     SceneFile, SceneMeta, check_rep_crc, check_vdt_record, read_walk_chunk_at, walk_index_of,
 };
 pub use rep::{PackedVertex, REP_MAGIC, RepHeader, RepMesh, quantize_unit_normal};
-pub use writer::SceneWriter;
+pub use writer::{RepLocation, SceneWriter};
 
 pub use crate::records::*;
 

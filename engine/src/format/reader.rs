@@ -8,7 +8,7 @@ use super::objects::ObjectTable;
 use super::walk::{Chunk, ChunkRecord, WalkIndex};
 use super::{
     BLOCK, FileHeader, FileHeaderV1, FileHeaderV2, FormatError, MAGIC, NodeRecord, RepMesh,
-    RepRecord, VERSION,
+    RepPlacement, RepRecord, VERSION,
 };
 use crate::io::{ByteSource, FileSource, MemSource};
 use crate::skeleton::{RepId, Skeleton};
@@ -75,12 +75,19 @@ impl<S: ByteSource> SceneFile<S> {
         }
         let node_bytes = u64::from(header.node_count) * size_of::<NodeRecord>() as u64;
         let nodes: Vec<NodeRecord> = read_records(&source, header.skeleton_offset, node_bytes)?;
-        let reps: Vec<RepRecord> = read_records(
+        let rep_bytes = u64::from(header.rep_count) * size_of::<RepRecord>() as u64;
+        let reps: Vec<RepRecord> =
+            read_records(&source, header.skeleton_offset + node_bytes, rep_bytes)?;
+        let placements: Vec<RepPlacement> = read_records(
             &source,
-            header.skeleton_offset + node_bytes,
-            header.skeleton_len - node_bytes,
+            header.skeleton_offset + node_bytes + rep_bytes,
+            header.skeleton_len - node_bytes - rep_bytes,
         )?;
-        let skeleton = Skeleton { nodes, reps };
+        let skeleton = Skeleton {
+            nodes,
+            reps,
+            placements,
+        };
         skeleton.validate(header.data_offset, header.data_offset + header.data_len)?;
         Ok(Self {
             source,
@@ -186,8 +193,12 @@ impl<S: ByteSource> SceneFile<S> {
                 reason: "a view-dependence tree or MT, not a mesh".into(),
             });
         }
-        let bytes = self.read_rep_bytes(rep)?;
-        RepMesh::decode(&bytes, rep, self.record(rep)?)
+        // A shared payload is read as its source rep's and placed as this one.
+        let src = self.skeleton.payload_rep(rep);
+        let bytes = self.read_rep_bytes(src)?;
+        let mut mesh = RepMesh::decode(&bytes, src, self.record(src)?)?;
+        mesh.placement = self.skeleton.placement(rep).copied();
+        Ok(mesh)
     }
 
     /// Reads the whole embedded view-dependence tree of rep `rep` and opens
@@ -414,7 +425,8 @@ fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
             v1.upgrade()
         }
         2..=4 => read_sized::<FileHeaderV2>(source, have)?.upgrade(),
-        VERSION => read_sized::<FileHeader>(source, have)?,
+        // Version 5's header is version 6's with no placements.
+        5 | VERSION => read_sized::<FileHeader>(source, have)?,
         found => return Err(FormatError::UnsupportedVersion { found }),
     };
     let bad = |s: &str| Err(FormatError::BadHeader(s.to_string()));
@@ -425,8 +437,12 @@ fn read_header(source: &impl ByteSource) -> Result<FileHeader, FormatError> {
             have,
         });
     }
+    if header.placement_count > u64::from(header.rep_count) {
+        return bad("more placements than reps");
+    }
     let records = u64::from(header.node_count) * size_of::<NodeRecord>() as u64
-        + u64::from(header.rep_count) * size_of::<RepRecord>() as u64;
+        + u64::from(header.rep_count) * size_of::<RepRecord>() as u64
+        + header.placement_count * size_of::<RepPlacement>() as u64;
     if header.data_offset != BLOCK
         || header.data_offset.checked_add(header.data_len) != Some(header.skeleton_offset)
         || !header.skeleton_offset.is_multiple_of(BLOCK)

@@ -52,6 +52,10 @@ pub struct RepMesh {
     pub vertices: Vec<PackedVertex>,
     /// Triangle list; every index is `< vertices.len()`.
     pub indices: Vec<u32>,
+    /// Where a shared payload is placed (its rep's [`crate::records::RepPlacement`]):
+    /// [`RepMesh::position`] and [`RepMesh::normal`] apply it. `None` for a
+    /// payload in scene coordinates.
+    pub placement: Option<crate::records::RepPlacement>,
 }
 
 /// Snorm8 encoding of a unit normal (zero vectors stay zero).
@@ -103,6 +107,7 @@ impl RepMesh {
             quant_scale: scale,
             vertices,
             indices,
+            placement: None,
         }
     }
 
@@ -112,13 +117,26 @@ impl RepMesh {
         0.5 * (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt()
     }
 
-    /// The dequantised position of vertex `v`.
+    /// The dequantised position of vertex `v`, in scene coordinates.
     pub fn position(&self, v: &PackedVertex) -> [f32; 3] {
         let mut p = [0f32; 3];
         for (a, out) in p.iter_mut().enumerate() {
             *out = self.quant_min[a] + f32::from(v.position[a]) * self.quant_scale[a];
         }
-        p
+        match &self.placement {
+            Some(pl) => pl.point(p),
+            None => p,
+        }
+    }
+
+    /// The unit normal of vertex `v`, in scene coordinates.
+    pub fn normal(&self, v: &PackedVertex) -> [f32; 3] {
+        let n = v.normal.map(|c| f32::from(c) / 127.0);
+        let n = [n[0], n[1], n[2]];
+        match &self.placement {
+            Some(pl) => pl.normal(n),
+            None => n,
+        }
     }
 
     /// Triangles in the mesh.
@@ -228,6 +246,7 @@ impl RepMesh {
             quant_scale: h.quant_scale,
             vertices,
             indices,
+            placement: None,
         })
     }
 }

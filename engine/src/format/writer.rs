@@ -109,12 +109,15 @@ impl<W: Write + Seek> SceneWriter<W> {
         let rep_count = u32::try_from(skeleton.reps.len()).map_err(|_| too_large("reps"))?;
         let node_bytes: &[u8] = bytemuck::cast_slice(&skeleton.nodes);
         let rep_bytes: &[u8] = bytemuck::cast_slice(&skeleton.reps);
+        let placement_bytes: &[u8] = bytemuck::cast_slice(&skeleton.placements);
         let mut crc = crc32fast::Hasher::new();
         crc.update(node_bytes);
         crc.update(rep_bytes);
+        crc.update(placement_bytes);
         self.out.write_all(node_bytes)?;
         self.out.write_all(rep_bytes)?;
-        let skeleton_len = (node_bytes.len() + rep_bytes.len()) as u64;
+        self.out.write_all(placement_bytes)?;
+        let skeleton_len = (node_bytes.len() + rep_bytes.len() + placement_bytes.len()) as u64;
         self.out.write_all(objects)?;
         self.out.write_all(walk)?;
         let objects_offset = self.pos + skeleton_len;
@@ -155,7 +158,8 @@ impl<W: Write + Seek> SceneWriter<W> {
             walk_crc,
             walk_offset,
             walk_len: walk.len() as u64,
-            reserved: [0; 6],
+            placement_count: skeleton.placements.len() as u64,
+            reserved: [0; 5],
         };
         header.header_crc = crc32fast::hash(bytemuck::bytes_of(&header));
         self.out.seek(SeekFrom::Start(0))?;

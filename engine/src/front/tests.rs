@@ -40,7 +40,11 @@ fn row(n: u32) -> Skeleton {
             });
         }
     }
-    Skeleton { nodes, reps }
+    Skeleton {
+        nodes,
+        reps,
+        ..Skeleton::default()
+    }
 }
 
 fn view_from(eye: Vec3, target: Vec3) -> View {

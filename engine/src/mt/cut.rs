@@ -292,6 +292,7 @@ impl MtCut {
             quant_scale: h.quant_scale,
             vertices: Vec::new(),
             indices: Vec::with_capacity(3 * self.tris as usize),
+            placement: None,
         };
         for &(f, pos) in self.arcs.keys() {
             let nd: &Arc<NodeData> = store.peek(f).expect("cut fathers are pinned in core");

@@ -204,7 +204,14 @@ impl OcclusionCuller {
     /// A rep drawn as itself this frame (a static rep's raw payload, its
     /// node's box): its occluder triangles are kept (when the box is large
     /// on the screen), and go into the buffer after the frame.
-    pub fn drawn(&mut self, r: RepId, rec: &RepRecord, payload: &Arc<[u8]>, bbox: (Vec3, Vec3)) {
+    /// A shared payload's triangles are placed by `placement`.
+    pub fn drawn(
+        &mut self,
+        r: RepId,
+        (rec, placement): (&RepRecord, Option<&crate::records::RepPlacement>),
+        payload: &Arc<[u8]>,
+        bbox: (Vec3, Vec3),
+    ) {
         if rec.is_paged() || self.buffer.is_none() {
             return;
         }
@@ -218,7 +225,7 @@ impl OcclusionCuller {
                 return;
             }
             self.scanned += tris;
-            self.store.insert_from(r, payload, self.frame);
+            self.store.insert_from(r, payload, placement, self.frame);
         }
         if self.rasterised[r as usize] != self.pass {
             self.drawn.push(r);

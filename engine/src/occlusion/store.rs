@@ -158,11 +158,23 @@ impl OccluderStore {
 
     /// Keeps rep `r`'s occluders, taken from its raw payload, unless held
     /// (used in `frame`); the least recently used entries make room.
-    pub fn insert_from(&mut self, r: RepId, payload: &[u8], frame: u32) {
+    pub fn insert_from(
+        &mut self,
+        r: RepId,
+        payload: &[u8],
+        placement: Option<&crate::records::RepPlacement>,
+        frame: u32,
+    ) {
         if self.get(r, frame).is_some() {
             return;
         }
-        let tris: Tris = occluder_triangles(payload).into();
+        let mut tris = occluder_triangles(payload);
+        if let Some(pl) = placement {
+            for t in &mut tris {
+                *t = t.map(|p| Vec3::from_array(pl.point(p.to_array())));
+            }
+        }
+        let tris: Tris = tris.into();
         let cost = Self::cost(&tris);
         if cost > self.capacity {
             return;

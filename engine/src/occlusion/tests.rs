@@ -24,18 +24,18 @@ fn the_store_stays_within_its_bytes() {
     let per = 64 + 2 * 36;
     let mut s = OccluderStore::new(3 * per + 10);
     for r in 0..10 {
-        s.insert_from(r, &payload, r);
+        s.insert_from(r, &payload, None, r);
         s.validate().unwrap();
         assert!(s.bytes() <= 3 * per + 10);
     }
     assert_eq!(s.len(), 3);
     // The most recent three are held; a read marks an entry as used.
     assert!(s.get(7, 10).is_some() && s.get(9, 10).is_some());
-    s.insert_from(10, &payload, 10);
+    s.insert_from(10, &payload, None, 10);
     assert!(s.get(7, 10).is_some() && s.get(8, 10).is_none());
     // A store too small for one entry holds nothing.
     let mut tiny = OccluderStore::new(10);
-    tiny.insert_from(0, &payload, 0);
+    tiny.insert_from(0, &payload, None, 0);
     assert!(tiny.is_empty());
 }
 
@@ -109,7 +109,7 @@ fn occluders_follow_the_last_frame_across_a_change_of_tolerance() {
     assert_eq!(c.stats().occluders, 0, "no last frame");
     for &r in &front {
         let rec = skel.reps[r as usize];
-        c.drawn(r, &rec, &payload(r), index.node_box(rec.node));
+        c.drawn(r, (&rec, None), &payload(r), index.node_box(rec.node));
     }
     c.end_frame(&skel, &index, &front);
     // Frame 2 at the same tolerance: its front's reps that were visible.

@@ -29,6 +29,8 @@ mod fade_tests;
 #[cfg(test)]
 mod fault_tests;
 pub mod footprint;
+#[cfg(test)]
+mod instance_tests;
 mod loader;
 #[cfg(test)]
 mod lookahead_tests;
@@ -448,23 +450,26 @@ impl Walkthrough {
         } else {
             m.substituted += 1;
         }
+        let placement = self.skeleton.placement(rep).copied();
         if rep == for_rep {
-            self.select.drawn(rep, rec, &payload);
+            self.select.drawn(rep, (rec, placement.as_ref()), &payload);
         }
         if self.drawn_stamp[rep as usize] != stamp {
             self.drawn_stamp[rep as usize] = stamp;
             m.drawn_tris += u64::from(rec.tri_count);
-            let style = if rep == for_rep {
+            let mut style = if rep == for_rep {
                 let fade = self.fades.fade_in(rep);
                 m.fade_in += u32::from(fade != Fade::Opaque);
                 DrawStyle {
                     substitute: false,
                     fade,
+                    placement: None,
                 }
             } else {
                 self.fades.shown(rep);
                 DrawStyle::opaque(true)
             };
+            style.placement = placement;
             renderer.draw(rep, rec, &payload, style);
         }
     }
@@ -486,6 +491,7 @@ impl Walkthrough {
             DrawStyle {
                 substitute: false,
                 fade,
+                placement: self.skeleton.placement(d.rep).copied(),
             },
         );
     }

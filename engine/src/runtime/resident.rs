@@ -46,6 +46,10 @@ pub struct ResidentSet {
     evictions: u64,
     /// Bytes of speculative reps evicted before they were ever drawn.
     wasted: u64,
+    /// The rep each rep's payload is held under (a shared payload under
+    /// its owner: [`crate::skeleton::Skeleton::payload_rep`]); empty when
+    /// every rep owns its payload.
+    owner: Vec<RepId>,
 }
 
 impl ResidentSet {
@@ -67,12 +71,33 @@ impl ResidentSet {
             evicted: Vec::new(),
             evictions: 0,
             wasted: 0,
+            owner: Vec::new(),
+        }
+    }
+
+    /// An empty set whose rep `r` holds the payload of `owner[r]`: a
+    /// payload several reps place is resident, counted, pinned and
+    /// evicted once, under its owner's id (the id that evictions report).
+    pub fn shared(cost: Vec<u64>, owner: Vec<RepId>) -> Self {
+        debug_assert_eq!(cost.len(), owner.len());
+        let mut s = Self::new(cost);
+        if owner.iter().enumerate().any(|(i, &o)| o as usize != i) {
+            s.owner = owner;
+        }
+        s
+    }
+
+    /// The id rep `r`'s payload is held under.
+    fn key(&self, r: RepId) -> RepId {
+        match self.owner.get(r as usize) {
+            Some(&o) => o,
+            None => r,
         }
     }
 
     /// Footprint of rep `r` while resident.
     pub fn cost(&self, r: RepId) -> u64 {
-        self.cost[r as usize]
+        self.cost[self.key(r) as usize]
     }
 
     /// Bytes resident or reserved: what the budget bounds.
@@ -87,12 +112,12 @@ impl ResidentSet {
 
     /// Rep `r`'s payload when resident.
     pub fn payload(&self, r: RepId) -> Option<&Arc<[u8]>> {
-        self.data[r as usize].as_ref()
+        self.data[self.key(r) as usize].as_ref()
     }
 
     /// Whether rep `r` is resident.
     pub fn contains(&self, r: RepId) -> bool {
-        self.data[r as usize].is_some()
+        self.data[self.key(r) as usize].is_some()
     }
 
     /// The frame stamp of the current Stage II (the pins' generation).
@@ -121,22 +146,25 @@ impl ResidentSet {
 
     /// Pins rep `r` for this frame (it is drawn): not speculative any more.
     pub fn pin(&mut self, r: RepId) {
+        let r = self.key(r);
         self.pinned[r as usize] = self.frame;
         self.set_speculative(r, false);
     }
 
     /// Whether rep `r` must not be evicted now.
     pub fn is_pinned(&self, r: RepId) -> bool {
+        let r = self.key(r);
         self.pinned[r as usize] == self.frame || self.keep == Some(r)
     }
 
     /// Keeps rep `r` resident for good.
     pub fn keep(&mut self, r: RepId) {
-        self.keep = Some(r);
+        self.keep = Some(self.key(r));
     }
 
     /// An access: rep `r` moves right after StartTail.
     pub fn access(&mut self, r: RepId) {
+        let r = self.key(r);
         Eviction::access(&mut self.list, r, ());
     }
 
@@ -161,6 +189,7 @@ impl ResidentSet {
     /// A read of rep `r` completed: its reservation becomes the resident
     /// rep, accessed now, speculative when prefetched.
     pub fn insert(&mut self, r: RepId, payload: Arc<[u8]>, speculative: bool) {
+        let r = self.key(r);
         debug_assert!(self.data[r as usize].is_none());
         self.reserved -= self.cost[r as usize];
         self.data[r as usize] = Some(payload);
@@ -172,6 +201,7 @@ impl ResidentSet {
 
     /// Marks rep `r` speculative (prefetched, not drawn since) or not.
     pub fn set_speculative(&mut self, r: RepId, on: bool) {
+        let r = self.key(r);
         let flag = &mut self.speculative[r as usize];
         if *flag != on {
             *flag = on;
@@ -186,6 +216,7 @@ impl ResidentSet {
     /// Removes resident rep `r` (evicted, or unusable); P_R is told by
     /// [`ResidentSet::take_evicted`].
     pub fn remove(&mut self, r: RepId, payload_len: u64) {
+        let r = self.key(r);
         if self.speculative[r as usize] {
             self.wasted += payload_len;
         }
@@ -264,6 +295,9 @@ impl ResidentSet {
         for (r, d) in self.data.iter().enumerate() {
             let r32 = r as RepId;
             if d.is_some() {
+                if self.key(r32) != r32 {
+                    return Err(format!("rep {r} holds a payload it does not own"));
+                }
                 sum += self.cost[r];
                 if !self.list.contains(r32) {
                     return Err(format!("rep {r} resident but not in the list"));

@@ -90,9 +90,13 @@ impl FrontSelect {
             out.occlusion_ms += self.clock.ms_since(t);
         }
         let mut cost = FrontCost::default();
+        // A payload placed several times in the front is resident once.
+        let mut placed = std::collections::HashSet::new();
         for &r in &out.front {
             let rec = &s.reps[r as usize];
-            cost.bytes += rec.resident_len();
+            if s.placement(r).is_none_or(|p| placed.insert(p.source)) {
+                cost.bytes += rec.resident_len();
+            }
             if !rec.is_paged() {
                 cost.tris += u64::from(rec.tri_count);
             }
@@ -132,10 +136,15 @@ impl FrontSelect {
 
     /// A rep drawn as itself this frame (for the occluders: not one the
     /// section cuts, nor one drawn x-rayed or in part).
-    pub(super) fn drawn(&mut self, r: RepId, rec: &RepRecord, payload: &Arc<[u8]>) {
+    pub(super) fn drawn(
+        &mut self,
+        r: RepId,
+        rec: (&RepRecord, Option<&crate::records::RepPlacement>),
+        payload: &Arc<[u8]>,
+    ) {
         if let Some(c) = &mut self.occlusion {
-            let (mn, mx) = self.index.node_box(rec.node);
-            if self.section.keeps_whole_box(mn, mx) && self.index.all_shown(rec.node) {
+            let (mn, mx) = self.index.node_box(rec.0.node);
+            if self.section.keeps_whole_box(mn, mx) && self.index.all_shown(rec.0.node) {
                 c.drawn(r, rec, payload, (mn, mx));
             }
         }

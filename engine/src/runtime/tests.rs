@@ -15,7 +15,7 @@ pub(super) fn scene(reps: &[u32], children: &[u32]) -> (Arc<Skeleton>, Arc<dyn B
     scene_of(build(reps, children).0)
 }
 
-fn scene_of(bytes: Vec<u8>) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
+pub(super) fn scene_of(bytes: Vec<u8>) -> (Arc<Skeleton>, Arc<dyn ByteSource>) {
     let file = SceneFile::from_source(MemSource::new(bytes.clone())).unwrap();
     (
         Arc::new(file.skeleton().clone()),
@@ -152,9 +152,17 @@ proptest! {
         occlusion in any::<bool>(),
         governor in any::<bool>(),
         fade in any::<bool>(),
+        instanced in any::<bool>(),
     ) {
-        let (skel, src) = if compressed { wide_compressed(64) } else { wide(64) };
-        let total: u64 = skel.reps.iter().map(|r| r.resident_len()).sum();
+        let (skel, src) = if instanced {
+            let (reps, children) = wide_shape(64);
+            scene_of(crate::testutil::build_instanced(&reps, &children).0)
+        } else if compressed { wide_compressed(64) } else { wide(64) };
+        // A shared payload is resident once.
+        let total: u64 = (skel.reps.iter().enumerate())
+            .filter(|&(r, _)| skel.owns_payload(r as RepId))
+            .map(|(_, r)| r.resident_len())
+            .sum();
         let root = skel.reps[0].resident_len() + skel.reps[0].load_scratch();
         let budget = root + ((total - root) as f64 * budget_frac) as u64;
         let mode = if prefetch { Mode::Pre } else { Mode::NoPre };

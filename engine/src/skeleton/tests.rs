@@ -107,3 +107,90 @@ fn validate_rejects_broken_hierarchies() {
     let s = good.clone();
     assert!(s.validate(4096, 4200).is_err(), "ranges past the data end");
 }
+
+#[test]
+fn shared_payloads_validate_and_are_counted_once() {
+    // A root over four leaves of two levels, every leaf's levels shared.
+    let (bytes, s) = crate::testutil::build_instanced(&[1, 2, 2, 2, 2], &[4, 0, 0, 0, 0]);
+    let (_, plain) = build(&[1, 2, 2, 2, 2], &[4, 0, 0, 0, 0]);
+    s.validate(4096, bytes.len() as u64).unwrap();
+    assert_eq!(s.placements.len(), 8);
+    assert_eq!(s.payloads_in_file_order().len(), 3);
+    assert_eq!(s.payload_rep(7), s.payload_rep(1));
+    assert!(s.owns_payload(1) && !s.owns_payload(7) && s.owns_payload(0));
+    let leaf = plain.reps[1].expanded_extent();
+    assert_eq!(s.in_core_bytes() + 6 * leaf, plain.in_core_bytes());
+    // Read back as a placed mesh, a rep lies where its box says.
+    let file = crate::format::SceneFile::from_source(crate::io::MemSource::new(bytes)).unwrap();
+    assert_eq!(file.skeleton(), &s);
+    let m = file.read_rep(8).unwrap();
+    let rec = &s.reps[8];
+    for v in &m.vertices {
+        let p = m.position(v);
+        assert!((0..3).all(|a| p[a] >= rec.bbox_min[a] - 1e-4 && p[a] <= rec.bbox_max[a] + 1e-4));
+    }
+}
+
+#[test]
+fn validate_rejects_broken_placements() {
+    let (_, good) = crate::testutil::build_instanced(&[1, 2, 2], &[2, 0, 0]);
+    let check = |f: &dyn Fn(&mut Skeleton)| {
+        let mut s = good.clone();
+        f(&mut s);
+        s.validate(4096, u64::MAX).unwrap_err()
+    };
+    let placement = |e: ValidationError| matches!(e, ValidationError::Placement { .. });
+    // A payload of another rep's range or counts.
+    assert!(placement(check(&|s| s.reps[3].tri_count += 1)));
+    assert!(placement(check(&|s| s.placements[2].source = 2)));
+    // Out of range, out of order, not finite.
+    assert!(placement(check(&|s| s.placements[3].rep = 99)));
+    assert!(placement(check(&|s| s.placements.swap(0, 1))));
+    assert!(placement(check(
+        &|s| s.placements[1].transform[0][3] = f32::NAN
+    )));
+    // A source that does not own its payload.
+    assert!(placement(check(&|s| {
+        s.placements.remove(0);
+    })));
+    // Two payloads that overlap still do, placed or not.
+    assert!(matches!(
+        check(&|s| {
+            for r in [1, 3] {
+                s.reps[r].offset = s.reps[2].offset;
+            }
+        }),
+        ValidationError::Overlap { .. } | ValidationError::Placement { .. }
+    ));
+}
+
+#[test]
+fn a_placement_carries_points_and_normals() {
+    use crate::records::RepPlacement;
+    // A quarter turn about z, scaled by 2 along x, mirrored in z, moved.
+    let p = RepPlacement {
+        rep: 0,
+        source: 0,
+        transform: [
+            [0.0, -1.0, 0.0, 5.0],
+            [2.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, -1.0, 1.0],
+        ],
+    };
+    assert_eq!(p.point([1.0, 0.0, 0.0]), [5.0, 2.0, 1.0]);
+    assert_eq!(p.point([0.0, 1.0, 1.0]), [4.0, 0.0, 0.0]);
+    // A normal stays perpendicular to the transformed surface: the plane
+    // x + y = 0 has normal (1, 1, 0); its points (1, -1, 0), (0, 0, 1).
+    let n = p.normal([1.0, 1.0, 0.0]);
+    let a = p.point([1.0, -1.0, 0.0]);
+    let b = p.point([0.0, 0.0, 0.0]);
+    let c = p.point([0.0, 0.0, 1.0]);
+    let dot = |u: [f32; 3], v: [f32; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let sub = |u: [f32; 3], v: [f32; 3]| [u[0] - v[0], u[1] - v[1], u[2] - v[2]];
+    assert!(dot(n, sub(a, b)).abs() < 1e-6 && dot(n, sub(c, b)).abs() < 1e-6);
+    assert!((dot(n, n) - 1.0).abs() < 1e-6);
+    // Outward stays outward under the mirror: the transformed normal points
+    // the way the transformed offset along it does.
+    let out = sub(p.point([1.0, 1.0, 0.0]), b);
+    assert!(dot(n, out) > 0.0);
+}

@@ -61,6 +61,7 @@ fn write_scene(path: &Path) {
             node(2, 0, 1, 0, 0),
         ],
         reps,
+        ..Skeleton::default()
     };
     w.finish(
         &skeleton,

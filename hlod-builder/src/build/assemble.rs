@@ -31,6 +31,17 @@ type LeafExtras = (Option<crate::vdt::TreeRep>, Option<Vec<Run>>);
 /// LOD chains of meshes placed by several single-instance leaves, by mesh.
 pub(super) type Chains = Vec<(usize, Vec<Level>)>;
 
+/// Repeated leaves ([`super::groups`]): how each places its group's chain,
+/// and each group's chain with its instances' triangle counts (the runs of
+/// a merged leaf's finest level; empty for a single instance).
+#[derive(Default)]
+pub(super) struct Groups {
+    pub places: std::collections::BTreeMap<usize, super::groups::LeafPlace>,
+    /// Each group's owning node ([`super::groups::GroupPlan::owner`]).
+    pub owners: Vec<u32>,
+    pub chains: Vec<(Vec<Level>, Vec<u32>)>,
+}
+
 /// The scene being assembled: records so far, coarse reps awaiting their
 /// parents, and the writer.
 pub(super) struct Assembly<'a, W: Write + Seek> {
@@ -39,6 +50,7 @@ pub(super) struct Assembly<'a, W: Write + Seek> {
     pub items: &'a [Item],
     pub params: &'a BuildParams,
     pub chains: &'a Chains,
+    pub groups: &'a Groups,
     pub nodes: Vec<NodeRecord>,
     pub node_reps: Vec<Vec<RepRecord>>,
     pub coarse: Vec<Option<Coarse>>,
@@ -49,6 +61,16 @@ pub(super) struct Assembly<'a, W: Write + Seek> {
     pub done: u64,
     /// Leaves made at once (in parallel, their results held until written).
     pub batch: usize,
+    /// The groups' chains written so far ([`super::placed`]), by group.
+    pub written: std::collections::BTreeMap<usize, super::placed::Written>,
+    /// The placements made so far, by node.
+    pub pending: Vec<super::placed::Pending>,
+}
+
+/// A leaf as made in the parallel part.
+enum Made {
+    Own(Encoded, LeafExtras),
+    Placed(super::placed::PlacedLeaf),
 }
 
 fn chain_of(chains: &Chains, m: usize) -> Option<&Vec<Level>> {
@@ -73,22 +95,95 @@ impl<W: Write + Seek> Assembly<'_, W> {
                 self.params,
             )?;
             let lod = (RepKind::Lod, params.compress_reps);
-            let made: Vec<(Encoded, LeafExtras)> = batch
+            let groups = self.groups;
+            let made: Vec<Made> = batch
                 .par_iter()
                 .map(|&i| {
+                    if let Some(p) = groups.places.get(&i) {
+                        let g = p.group as usize;
+                        return Made::Placed(super::placed::PlacedLeaf::new(
+                            g,
+                            &groups.chains[g].0,
+                            p.frame,
+                            p.deviation,
+                        ));
+                    }
                     let (levels, vdt, runs) =
                         leaf_levels(&tree[i].items, items, &geo, params, &|m| {
                             chain_of(chains, m)
                         });
-                    (encode_chain(i as u32, levels, lod, 0.0), (vdt, runs))
+                    Made::Own(encode_chain(i as u32, levels, lod, 0.0), (vdt, runs))
                 })
                 .collect();
             drop(geo);
-            for (&i, (enc, (vdt, runs))) in batch.iter().zip(made) {
-                self.leaf(i, enc, vdt, runs)?;
+            for (&i, made) in batch.iter().zip(made) {
+                match made {
+                    Made::Own(enc, (vdt, runs)) => self.leaf(i, enc, vdt, runs)?,
+                    Made::Placed(p) => self.placed_leaf(i, p)?,
+                }
             }
             (self.report)("leaf LODs", self.done, total);
         }
+        Ok(())
+    }
+
+    /// A leaf placing a shared chain: the chain's payloads written if this
+    /// is its first leaf, the leaf's records and placements made.
+    fn placed_leaf(&mut self, i: usize, p: super::placed::PlacedLeaf) -> Result<(), FormatError> {
+        use super::placed::{Pending, Written};
+        let (chain, tris) = &self.groups.chains[p.group];
+        if !self.written.contains_key(&p.group) {
+            // Written by the first leaf made, in the owner's name.
+            let owner = self.groups.owners[p.group];
+            let lod = (RepKind::Lod, self.params.compress_reps);
+            let enc = encode_chain(owner, chain.clone(), lod, 0.0);
+            let (recs, _) = write_chain(&mut self.writer, enc)?;
+            self.written.insert(p.group, Written { owner, recs });
+        }
+        let w = &self.written[&p.group];
+        let recs = p.records(i as u32, &w.recs);
+        let rows = p.rows();
+        for index in 0..recs.len() as u16 {
+            self.pending.push(Pending {
+                node: i as u32,
+                index,
+                owner: w.owner,
+                rows,
+            });
+        }
+        let n = &mut self.nodes[i];
+        if tris.is_empty() {
+            n.object_count = 1;
+            n.object = item_object(&self.items[self.tree[i].items[0] as usize]);
+        } else {
+            // A merged leaf: its objects' runs, in the chain's order.
+            n.object_count = tris.len() as u32;
+            n.flags |= NodeRecord::FLAG_MERGED;
+            let order = &self.groups.places[&i].order;
+            let mut runs: Vec<Run> = Vec::new();
+            let mut end = 0u32;
+            for (&k, &t) in order.iter().zip(tris) {
+                end += t;
+                let object = item_object(&self.items[k as usize]);
+                match runs.last_mut() {
+                    Some(r) if r.object == object => r.tri_end = end,
+                    _ => runs.push(Run {
+                        object,
+                        tri_end: end,
+                    }),
+                }
+            }
+            self.leaf_runs.push((i as u32, runs));
+        }
+        let coarse = Coarse {
+            mesh: p.coarse,
+            error: recs[0].error,
+        };
+        finish_node(&mut self.nodes[i], &recs, &coarse.mesh, &[]);
+        self.node_reps[i] = recs;
+        self.coarse[i] = Some(coarse);
+        self.bar.inc(1);
+        self.done += 1;
         Ok(())
     }
 

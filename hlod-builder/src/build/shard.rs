@@ -217,6 +217,11 @@ pub fn build_shard_file(
     spec: ShardSpec,
 ) -> Result<BuildStats, BuildError> {
     params.check()?;
+    // Shards store every placement's levels: the merge does not share them.
+    let params = &BuildParams {
+        share_instances: false,
+        ..*params
+    };
     let inputs = crate::import::model_files(input);
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     let out = engine_cli::outfile::OutputFile::create(output, &inputs)?;
@@ -453,6 +458,10 @@ pub fn merge_files(
     opts: &RunOptions<'_>,
 ) -> Result<BuildStats, BuildError> {
     params.check()?;
+    let params = &BuildParams {
+        share_instances: false,
+        ..*params
+    };
     if !params.spatial_layout {
         return Err(BuildError::Params(
             "a merged build is written in the spatial layout (leave out --layout build)".into(),

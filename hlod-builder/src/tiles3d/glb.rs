@@ -260,13 +260,31 @@ pub fn encode(mesh: &RepMesh, features: Option<&Features>) -> Vec<u8> {
     }
     primitive["attributes"] = attributes;
     let s = node_scale(mesh);
+    // A shared payload (format version 6) is placed by its rep's transform:
+    // the node's matrix is that transform after the dequantisation.
+    let node = match &mesh.placement {
+        None => json!({"mesh": 0, "translation": mesh.quant_min, "scale": s}),
+        Some(p) => {
+            let m = &p.transform;
+            let q = mesh.quant_min;
+            // Column-major: the linear part's columns scaled by s, then the
+            // translation M · quant_min + t.
+            let mut cols = Vec::with_capacity(16);
+            for (j, sj) in s.iter().enumerate() {
+                cols.extend([m[0][j] * sj, m[1][j] * sj, m[2][j] * sj, 0.0]);
+            }
+            let t = p.point(q);
+            cols.extend([t[0], t[1], t[2], 1.0]);
+            json!({"mesh": 0, "matrix": cols})
+        }
+    };
     let mut doc = json!({
         "asset": {"version": "2.0", "generator": "hlod-build export-3dtiles"},
         "extensionsUsed": used,
         "extensionsRequired": ["EXT_meshopt_compression", "KHR_mesh_quantization"],
         "scene": 0,
         "scenes": [{"nodes": [0]}],
-        "nodes": [{"mesh": 0, "translation": mesh.quant_min, "scale": s}],
+        "nodes": [node],
         "meshes": [{"primitives": [primitive]}],
         "materials": [{"pbrMetallicRoughness": {
             "baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0,

@@ -66,8 +66,8 @@ fn a_fade_in_and_its_fade_out_cover_the_opaque_rep_exactly_once() {
             &rec,
             &payload,
             DrawStyle {
-                substitute: false,
                 fade,
+                ..DrawStyle::default()
             },
         );
         r.end_frame();

@@ -9,6 +9,7 @@ mod fade;
 mod formats;
 mod gpu_shot;
 mod ifc;
+mod instances;
 mod layout;
 mod mt_scene;
 mod objects;

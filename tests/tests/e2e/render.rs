@@ -292,15 +292,19 @@ fn a_small_arena_recycles_idle_gpu_copies() {
     let (_dir, path) = build(&glb);
     let scene = SceneFile::open(&path).unwrap();
     let skel = scene.skeleton().clone();
-    // What P_I hands the renderer: payloads expanded.
+    // What P_I hands the renderer: payloads expanded (a shared one as its
+    // owner's).
     let payloads: Vec<Arc<[u8]>> = (0..skel.reps.len() as u32)
         .map(|r| {
-            let stored = scene.read_rep_bytes(r).unwrap();
-            let raw = engine::format::expand_payload(&stored, r, &skel.reps[r as usize]).unwrap();
+            let o = skel.payload_rep(r);
+            let stored = scene.read_rep_bytes(o).unwrap();
+            let raw = engine::format::expand_payload(&stored, o, &skel.reps[o as usize]).unwrap();
             Arc::from(&*raw)
         })
         .collect();
+    // Six different payloads: the reps that own theirs.
     let mut sizes: Vec<(u64, u32)> = (0..skel.reps.len() as u32)
+        .filter(|&r| skel.owns_payload(r))
         .map(|r| (skel.reps[r as usize].resident_len(), r))
         .collect();
     sizes.sort_unstable();
@@ -332,7 +336,10 @@ fn a_small_arena_recycles_idle_gpu_copies() {
                 rep,
                 &skel.reps[rep as usize],
                 &payloads[rep as usize],
-                DrawStyle::opaque(false),
+                DrawStyle {
+                    placement: skel.placement(rep).copied(),
+                    ..DrawStyle::opaque(false)
+                },
             );
         }
         r.end_frame();

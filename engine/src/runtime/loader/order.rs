@@ -46,7 +46,7 @@ impl ReadQueue {
     }
 }
 
-/// The reps in file order.
+/// The payloads in file order (a shared one once, by the rep that owns it).
 #[derive(Clone, Debug, Default)]
 pub(super) struct FileOrder {
     by_offset: Vec<RepId>,
@@ -55,10 +55,14 @@ pub(super) struct FileOrder {
 
 impl FileOrder {
     pub(super) fn new(skeleton: &Skeleton) -> Self {
-        let by_offset = skeleton.reps_in_file_order();
-        let mut pos = vec![0u32; by_offset.len()];
+        let by_offset = skeleton.payloads_in_file_order();
+        let mut pos = vec![0u32; skeleton.reps.len()];
         for (i, &r) in by_offset.iter().enumerate() {
             pos[r as usize] = i as u32;
+        }
+        // A second placement of a payload is where its owner is.
+        for p in &skeleton.placements {
+            pos[p.rep as usize] = pos[p.source as usize];
         }
         Self { by_offset, pos }
     }

@@ -124,7 +124,12 @@ impl Reads {
             .map(|(r, p)| r.resident_len() + p.unwrap_or(0))
             .collect();
         Self {
-            res: ResidentSet::new(cost),
+            res: ResidentSet::shared(
+                cost,
+                (0..skeleton.reps.len() as RepId)
+                    .map(|r| skeleton.payload_rep(r))
+                    .collect(),
+            ),
             failed: pools.iter().map(Option::is_none).collect(),
             retry: Retry::default(),
             costs: IoCosts::for_source(&*source),
@@ -155,6 +160,7 @@ impl Reads {
 
     /// Removes resident rep `r` (P_R is told with the next reply).
     pub(super) fn drop_rep(&mut self, r: RepId) {
+        let r = self.skeleton.payload_rep(r);
         let wasted = self.res.wasted_bytes();
         self.res
             .remove(r, self.skeleton.reps[r as usize].resident_len());
@@ -182,6 +188,13 @@ impl Reads {
         purpose: Purpose,
         turn: &mut dyn Turn,
     ) -> Result<Arc<[u8]>, LoadError> {
+        // A shared payload is read, held and failed under its owner, once.
+        let r = self.skeleton.payload_rep(r);
+        if let Some(p) = self.res.payload(r) {
+            let p = p.clone();
+            self.res.access(r);
+            return Ok(p);
+        }
         if self.failed[r as usize] {
             return Err(LoadError::Failed);
         }

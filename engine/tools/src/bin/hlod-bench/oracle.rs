@@ -345,6 +345,7 @@ mod tests {
         Skeleton {
             nodes: Vec::new(),
             reps,
+            ..Skeleton::default()
         }
     }
 
