@@ -251,11 +251,15 @@ impl Reads {
             }
             _ => ranges.push((a, b)),
         };
+        let mut last_owner = None;
         for r in reps {
+            // A shared payload is read once, under its owner.
+            let r = self.skeleton.payload_rep(r);
             let rec = &self.skeleton.reps[r as usize];
-            if self.res.contains(r) || self.failed[r as usize] {
+            if self.res.contains(r) || self.failed[r as usize] || last_owner == Some(r) {
                 continue;
             }
+            last_owner = Some(r);
             let need = self.cost(r) + rec.load_scratch();
             if need > room {
                 break;
