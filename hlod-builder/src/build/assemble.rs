@@ -12,7 +12,7 @@ use engine::format::{NodeRecord, RepKind, RepMesh, RepRecord, SceneWriter};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
-use super::leaf::{Item, item_object, leaf_levels};
+use super::leaf::{Item, item_object, leaf_levels, runs_of};
 use super::source::{CellGeometry, SceneSource};
 use super::{BuildParams, BuildStats, Report};
 use crate::cluster::TreeNode;
@@ -151,40 +151,43 @@ impl<W: Write + Seek> Assembly<'_, W> {
                 rows,
             });
         }
-        let n = &mut self.nodes[i];
-        if tris.is_empty() {
-            n.object_count = 1;
-            n.object = item_object(&self.items[self.tree[i].items[0] as usize]);
-        } else {
-            // A merged leaf: its objects' runs, in the chain's order.
-            n.object_count = tris.len() as u32;
-            n.flags |= NodeRecord::FLAG_MERGED;
+        // A merged leaf: its own objects' runs, in the chain's order.
+        let runs = (!tris.is_empty()).then(|| {
             let order = &self.groups.places[&i].order;
-            let mut runs: Vec<Run> = Vec::new();
-            let mut end = 0u32;
-            for (&k, &t) in order.iter().zip(tris) {
-                end += t;
-                let object = item_object(&self.items[k as usize]);
-                match runs.last_mut() {
-                    Some(r) if r.object == object => r.tri_end = end,
-                    _ => runs.push(Run {
-                        object,
-                        tri_end: end,
-                    }),
-                }
-            }
-            self.leaf_runs.push((i as u32, runs));
-        }
+            runs_of(
+                (order.iter().zip(tris)).map(|(&k, &t)| (item_object(&self.items[k as usize]), t)),
+            )
+        });
         let coarse = Coarse {
             mesh: p.coarse,
             error: recs[0].error,
         };
-        finish_node(&mut self.nodes[i], &recs, &coarse.mesh, &[]);
+        self.finish_leaf(i, recs, coarse, runs);
+        Ok(())
+    }
+
+    /// A leaf's node: its objects, flags and runs, box and colour, its
+    /// records and its coarsest level kept for its parent.
+    fn finish_leaf(&mut self, i: usize, recs: Vec<RepRecord>, c: Coarse, runs: Option<Vec<Run>>) {
+        if let Some(r) = runs {
+            self.leaf_runs.push((i as u32, r));
+        }
+        let items = &self.tree[i].items;
+        let n = &mut self.nodes[i];
+        n.object_count = items.len() as u32;
+        if let [k] = items.as_slice() {
+            n.object = item_object(&self.items[*k as usize]);
+            if matches!(self.items[*k as usize], Item::Chunk { .. }) {
+                n.flags |= NodeRecord::FLAG_CHUNK;
+            }
+        } else {
+            n.flags |= NodeRecord::FLAG_MERGED;
+        }
+        finish_node(&mut self.nodes[i], &recs, &c.mesh, &[]);
         self.node_reps[i] = recs;
-        self.coarse[i] = Some(coarse);
+        self.coarse[i] = Some(c);
         self.bar.inc(1);
         self.done += 1;
-        Ok(())
     }
 
     fn leaf(
@@ -194,27 +197,6 @@ impl<W: Write + Seek> Assembly<'_, W> {
         vdt: Option<crate::vdt::TreeRep>,
         runs: Option<Vec<Run>>,
     ) -> Result<(), FormatError> {
-        if let Some(r) = runs {
-            self.leaf_runs.push((i as u32, r));
-        }
-        let objects: Vec<u32> = self.tree[i]
-            .items
-            .iter()
-            .map(|&k| item_object(&self.items[k as usize]))
-            .collect();
-        let n = &mut self.nodes[i];
-        n.object_count = objects.len() as u32;
-        if objects.len() == 1 {
-            n.object = objects[0];
-            if matches!(
-                self.items[self.tree[i].items[0] as usize],
-                Item::Chunk { .. }
-            ) {
-                n.flags |= NodeRecord::FLAG_CHUNK;
-            }
-        } else {
-            n.flags |= NodeRecord::FLAG_MERGED;
-        }
         let (mut recs, c) = write_chain(&mut self.writer, enc)?;
         if let Some(t) = vdt {
             if t.kind == RepKind::Mt {
@@ -229,11 +211,7 @@ impl<W: Write + Seek> Assembly<'_, W> {
                 &t,
             )?);
         }
-        finish_node(&mut self.nodes[i], &recs, &c.mesh, &[]);
-        self.node_reps[i] = recs;
-        self.coarse[i] = Some(c);
-        self.bar.inc(1);
-        self.done += 1;
+        self.finish_leaf(i, recs, c, runs);
         Ok(())
     }
 

@@ -121,11 +121,24 @@ pub(super) fn leaf_levels<'a>(
     // Each object optimised on its own, so that its triangles stay one run
     // of the finest rep (what picking resolves a merged leaf's hit by).
     let optimized: Vec<Mesh> = parts.iter().map(optimize).collect();
+    let runs = runs_of(
+        (leaf_items.iter().zip(&optimized))
+            .map(|(&k, m)| (item_object(&items[k as usize]), m.tri_count() as u32)),
+    );
+    (
+        lod_chain_from(Mesh::merge(&optimized), &params.lod),
+        None,
+        Some(runs),
+    )
+}
+
+/// The runs of a merged leaf's finest level from its objects' triangle
+/// counts, in the level's order (an object's consecutive items one run).
+pub(super) fn runs_of(objects: impl IntoIterator<Item = (u32, u32)>) -> Vec<Run> {
     let mut runs: Vec<Run> = Vec::new();
     let mut end = 0u32;
-    for (&k, m) in leaf_items.iter().zip(&optimized) {
-        end += m.tri_count() as u32;
-        let object = item_object(&items[k as usize]);
+    for (object, tris) in objects {
+        end += tris;
         match runs.last_mut() {
             Some(r) if r.object == object => r.tri_end = end,
             _ => runs.push(Run {
@@ -134,11 +147,7 @@ pub(super) fn leaf_levels<'a>(
             }),
         }
     }
-    (
-        lod_chain_from(Mesh::merge(&optimized), &params.lod),
-        None,
-        Some(runs),
-    )
+    runs
 }
 
 pub(crate) fn transformed_bounds(b: Aabb, m: &Mat4) -> Aabb {
@@ -150,7 +159,7 @@ pub(crate) fn transformed_bounds(b: Aabb, m: &Mat4) -> Aabb {
 }
 
 /// Largest stretch of the transform's linear part (scales object-space errors).
-fn max_scale(m: &Mat4) -> f32 {
+pub(super) fn max_scale(m: &Mat4) -> f32 {
     let l = Mat3::from_mat4(*m);
     l.x_axis
         .length()

@@ -11,11 +11,12 @@
 //! transform's largest stretch. HLODs above are made from the placed
 //! coarsest level, as from any leaf's.
 
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat4, Vec3};
 
 use engine::format::{RepPlacement, RepRecord};
 use engine::skeleton::Skeleton;
 
+use super::leaf::max_scale;
 use crate::lod::{Level, strictly_above};
 use crate::mesh::{Aabb, Mesh};
 
@@ -112,13 +113,4 @@ pub(super) fn resolve(skeleton: &mut Skeleton, pending: &[Pending]) {
         .collect();
     out.sort_unstable_by_key(|p| p.rep);
     skeleton.placements = out;
-}
-
-/// Largest stretch of the transform's linear part (scales object-space errors).
-pub(super) fn max_scale(m: &Mat4) -> f32 {
-    let l = Mat3::from_mat4(*m);
-    l.x_axis
-        .length()
-        .max(l.y_axis.length())
-        .max(l.z_axis.length())
 }
