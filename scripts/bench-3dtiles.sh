@@ -9,7 +9,8 @@
 # resident.svg the resident bytes of both along the path.
 # WALK_TIMEOUT (seconds, default 3600) bounds the browser's wait for its
 # first complete view; PARSE_JOBS (default 5, the library's) sets the page's
-# parses per frame.
+# parses per frame. BUNDLE (a size such as 256K; default 0, a tile per rep)
+# exports with `--bundle`.
 # Usage: scripts/bench-3dtiles.sh SCENE BUDGET [PATH-KIND] [FRAMES] [SIZE]
 #   scripts/bench-3dtiles.sh de2.hlod 7.5% flythrough 300 640x360
 set -euo pipefail
@@ -25,9 +26,15 @@ name=$(basename "$scene" .hlod)
 out="out/3dtiles/$name/$kind"
 mkdir -p "$out"
 cargo build --release -q -p engine-tools --bin hlod-bench -p hlod-builder --bin hlod-build
+bundle=${BUNDLE:-0}
 tiles="out/3dtiles/$name/tiles"
+if [ "$bundle" != 0 ]; then
+  tiles="$tiles-b$bundle"
+  out="$out-b$bundle"
+  mkdir -p "$out"
+fi
 if ! [ -f "$tiles/tileset.json" ] || [ "$scene" -nt "$tiles/tileset.json" ]; then
-  /usr/bin/time -f "export: %e s, peak RSS %M KiB" target/release/hlod-build export-3dtiles "$scene" -o "$tiles" 2>&1 | tee "$out/export.txt"
+  /usr/bin/time -f "export: %e s, peak RSS %M KiB" target/release/hlod-build export-3dtiles "$scene" -o "$tiles" --bundle "$bundle" 2>&1 | tee "$out/export.txt"
 fi
 port=$((19000 + RANDOM % 500))
 bash scripts/serve.sh "$(dirname "$scene")" "$port" > "$out/serve.log" 2>&1 &

@@ -86,6 +86,12 @@ enum Cmd {
         /// tilesets.
         #[arg(long, default_value_t = 10_000)]
         max_tiles_per_json: usize,
+        /// Export each subtree storing at most SIZE of reps (e.g. 256K) as
+        /// one chain of tiles whose contents merge its reps: far fewer,
+        /// larger tiles, which browsers load much faster, refined a bundle
+        /// at a time. 0: one tile per rep.
+        #[arg(long, default_value = "0", value_parser = parse_bundle)]
+        bundle: u64,
     },
     /// Generate a glTF scene.
     #[command(subcommand)]
@@ -224,9 +230,13 @@ fn run(cli: Cli) -> Result<()> {
             scene,
             output,
             max_tiles_per_json,
+            bundle,
         } => {
             let t = std::time::Instant::now();
-            let opts = hlod_builder::tiles3d::ExportOptions { max_tiles_per_json };
+            let opts = hlod_builder::tiles3d::ExportOptions {
+                max_tiles_per_json,
+                bundle_bytes: bundle,
+            };
             let r = hlod_builder::tiles3d::export(&scene, &output, opts)?;
             let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
             println!(
@@ -242,6 +252,12 @@ fn run(cli: Cli) -> Result<()> {
                 mib(r.largest_json_bytes),
                 t.elapsed().as_secs_f64()
             );
+            if r.bundles > 0 {
+                println!(
+                    "{} bundles merge {} reps into chains of tiles",
+                    r.bundles, r.bundled_reps
+                );
+            }
             if r.paged_reps_skipped > 0 {
                 eprintln!(
                     "warning: {} view-dependence trees and Multi-Triangulations are not exported; those leaves end at their finest static rep",
@@ -353,6 +369,18 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `--bundle`: 0, or a size of at least 1 KiB.
+fn parse_bundle(s: &str) -> Result<u64, String> {
+    if s.trim() == "0" {
+        return Ok(0);
+    }
+    let v = hlod_builder::build::memory::parse_size(s)?;
+    if v < 1024 {
+        return Err(format!("{s:?}: a bundle of at least 1K (or 0 for none)"));
+    }
+    Ok(v)
 }
 
 fn parse_grid(s: &str) -> Result<(usize, usize)> {

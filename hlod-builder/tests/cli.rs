@@ -627,4 +627,22 @@ fn export_3dtiles_writes_a_tileset_and_fails_cleanly() {
         d,
     );
     assert_clean_failure(&out, "at least 16", d, n);
+    let out = hlod_build(
+        &["export-3dtiles", "h.hlod", "-o", "t3", "--bundle", "10"],
+        d,
+    );
+    assert_clean_failure(&out, "at least 1K", d, n);
+    // Bundled: fewer files, said so.
+    let out = hlod_build(
+        &["export-3dtiles", "h.hlod", "-o", "t4", "--bundle", "64K"],
+        d,
+    );
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(said.contains("bundles merge"), "{said}");
+    assert!(d.join("t4/tileset.json").is_file());
 }

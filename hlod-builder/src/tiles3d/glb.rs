@@ -35,7 +35,8 @@ pub struct Element {
 /// Which element each triangle of a rep belongs to.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Features {
-    /// Per triangle, an index into `elements`.
+    /// Per triangle, an index into `elements`, or `elements.len()` for a
+    /// triangle of no element (written as the `nullFeatureId`).
     pub triangle: Vec<u32>,
     /// Every element appears in `triangle`.
     pub elements: Vec<Element>,
@@ -249,9 +250,14 @@ pub fn encode(mesh: &RepMesh, features: Option<&Features>) -> Vec<u8> {
         accessors.push(json!({"bufferView": feature_view, "componentType": 5126,
                               "count": vc, "type": "SCALAR"}));
         attributes["_FEATURE_ID_0"] = json!(4);
-        primitive["extensions"] = json!({"EXT_mesh_features": {"featureIds": [{
+        let mut id = json!({
             "featureCount": f.elements.len(), "attribute": 0, "propertyTable": 0,
-        }]}});
+        });
+        // A merged tile's triangles of reps without elements (HLODs).
+        if f.triangle.iter().any(|&k| k as usize >= f.elements.len()) {
+            id["nullFeatureId"] = json!(f.elements.len());
+        }
+        primitive["extensions"] = json!({"EXT_mesh_features": {"featureIds": [id]}});
         root_ext.insert(
             "EXT_structural_metadata".into(),
             metadata(&mut bin, &f.elements),

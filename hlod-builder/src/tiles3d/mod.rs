@@ -21,13 +21,18 @@
 //! - **JSON size**: a subtree that would take a file over
 //!   [`ExportOptions::max_tiles_per_json`] tiles is written as an external
 //!   tileset (`tileset-NODE.json`), its largest subtrees first.
+//! - **Bundles** (`ExportOptions::bundle_bytes`, off by default): a small
+//!   subtree becomes one chain of tiles whose contents merge cuts of its
+//!   reps ([`bundle`]), for viewers that pay per tile.
 //! - **Not exported**: view-dependence trees and Multi-Triangulations (the
 //!   finest reps of large objects when built with them); the chain ends at
 //!   the node's finest static rep, whose error it keeps, and the count is
 //!   reported.
 
+pub mod bundle;
 pub mod glb;
 
+use std::collections::HashMap;
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -70,12 +75,16 @@ fn io_at(path: &Path) -> impl FnOnce(std::io::Error) -> ExportError + '_ {
 pub struct ExportOptions {
     /// Most tiles one JSON file holds (about 200 bytes each).
     pub max_tiles_per_json: usize,
+    /// Subtrees storing at most this many bytes of reps are exported as
+    /// bundles ([`bundle`]); 0: one tile per rep.
+    pub bundle_bytes: u64,
 }
 
 impl Default for ExportOptions {
     fn default() -> Self {
         Self {
             max_tiles_per_json: 10_000,
+            bundle_bytes: 0,
         }
     }
 }
@@ -94,6 +103,9 @@ pub struct ExportReport {
     pub largest_json_bytes: u64,
     /// View-dependence trees and MTs left out.
     pub paged_reps_skipped: u64,
+    /// Bundles written, and the reps their contents merge.
+    pub bundles: u64,
+    pub bundled_reps: u64,
 }
 
 /// The reps of node `n` that become tiles: its static meshes, in order.
@@ -143,12 +155,17 @@ impl Split {
     /// Greedy, bottom-up: a node's file holds its chain and its children's
     /// inline subtrees; while that exceeds `limit`, the largest child goes
     /// to a file of its own (leaving a one-tile stub).
-    fn new(s: &Skeleton, chains: &[u32], limit: usize) -> Self {
+    fn new(s: &Skeleton, chains: &[u32], limit: usize, bundles: &bundle::Bundles) -> Self {
         let n = s.nodes.len();
         let mut inline = vec![0usize; n];
         let mut external = vec![false; n];
         for i in (0..n).rev() {
             let node = &s.nodes[i];
+            if bundles.is_root(i as u32) {
+                // A bundle is its chain: its nodes have no tiles of their own.
+                inline[i] = chains[i] as usize;
+                continue;
+            }
             let kids = node.first_child as usize..(node.first_child + node.child_count) as usize;
             let mut total = chains[i] as usize + kids.clone().map(|c| inline[c]).sum::<usize>();
             if total > limit {
@@ -172,6 +189,9 @@ impl Split {
 struct Tileset<'a> {
     s: &'a Skeleton,
     split: Split,
+    bundles: &'a bundle::Bundles,
+    /// Each bundle's tiles, coarsest first: error and content path.
+    bundle_tiles: HashMap<u32, Vec<(f64, Option<String>)>>,
     origin: [f64; 3],
     dir: &'a Path,
     report: ExportReport,
@@ -207,7 +227,7 @@ impl Tileset<'_> {
                 pending.push((c, last));
                 self.report.tiles += 1;
             } else {
-                children.push(self.node_tile(c, last, pending));
+                children.push(self.subtree_tile(c, last, pending));
             }
         }
         // Build the chain from its finest tile up.
@@ -230,8 +250,48 @@ impl Tileset<'_> {
         tile.expect("at least one tile")
     }
 
+    /// Node `i`'s subtree as tiles: a bundle's chain, or the node's own.
+    fn subtree_tile(&mut self, i: u32, bound: f64, pending: &mut Vec<(u32, f64)>) -> Value {
+        if self.bundles.is_root(i) {
+            self.bundle_tile(i, bound)
+        } else {
+            self.node_tile(i, bound, pending)
+        }
+    }
+
+    /// The chain of bundle `i` under a parent of error `bound`.
+    fn bundle_tile(&mut self, i: u32, bound: f64) -> Value {
+        let bv = bounding_box(&self.s.nodes[i as usize]);
+        let tiles = self.bundle_tiles.get(&i).cloned().unwrap_or_default();
+        let mut errors = Vec::with_capacity(tiles.len());
+        let mut b = bound;
+        for (e, _) in &tiles {
+            b = b.min(*e);
+            errors.push(b);
+        }
+        if errors.is_empty() {
+            errors.push(bound);
+        }
+        let mut tile: Option<Value> = None;
+        for k in (0..errors.len()).rev() {
+            let mut t = json!({"boundingVolume": bv.clone(), "geometricError": errors[k] as f32});
+            if let Some((_, Some(uri))) = tiles.get(k) {
+                t["content"] = json!({"uri": uri});
+            }
+            if let Some(below) = tile.take() {
+                t["children"] = json!([below]);
+            }
+            self.report.tiles += 1;
+            tile = Some(t);
+        }
+        tile.expect("at least one tile")
+    }
+
     /// The error of node `c`'s first tile under a parent of error `bound`.
     fn first_error(&self, c: u32, bound: f64) -> f64 {
+        if let Some((e, _)) = self.bundle_tiles.get(&c).and_then(|t| t.first()) {
+            return bound.min(*e);
+        }
         let n = self.s.nodes[c as usize];
         chain(self.s, &n).first().map_or(bound, |&r| {
             bound.min(f64::from(self.s.reps[r as usize].error))
@@ -263,7 +323,7 @@ impl Tileset<'_> {
         // Above every rep's error: a root with no rep is always refined.
         let top = (diag * 1e3).max(1.0);
         let mut pending = Vec::new();
-        let mut tile = self.node_tile(0, top, &mut pending);
+        let mut tile = self.subtree_tile(0, top, &mut pending);
         tile["refine"] = json!("REPLACE");
         let o = self.origin;
         if o != [0.0; 3] {
@@ -273,7 +333,7 @@ impl Tileset<'_> {
         }
         self.write_file("tileset.json", tile)?;
         while let Some((c, bound)) = pending.pop() {
-            let mut tile = self.node_tile(c, bound, &mut pending);
+            let mut tile = self.subtree_tile(c, bound, &mut pending);
             tile["refine"] = json!("REPLACE");
             self.write_file(&external_name(c), tile)?;
         }
@@ -416,10 +476,11 @@ pub fn export(scene: &Path, out: &Path, opts: ExportOptions) -> Result<ExportRep
         }
         report.paged_reps_skipped += (n.rep_count as usize - c.len()) as u64;
     }
+    let bundles = bundle::Bundles::new(s, opts.bundle_bytes);
     let order: Vec<u32> = s
         .reps_in_file_order()
         .into_iter()
-        .filter(|&r| has_content(s, r))
+        .filter(|&r| has_content(s, r) && !bundles.is_inside(s.reps[r as usize].node))
         .collect();
     for batch in order.chunks(256) {
         let meshes = batch
@@ -432,10 +493,7 @@ pub fn export(scene: &Path, out: &Path, opts: ExportOptions) -> Result<ExportRep
             .map(|(r, mesh)| {
                 let f = features(s, &objects, *r, finest[*r as usize]);
                 let bytes = glb::encode(mesh, f.as_ref());
-                let path = tmp.path().join(content_uri(*r));
-                let dir = path.parent().expect("content files are in a folder");
-                fs::create_dir_all(dir).map_err(io_at(dir))?;
-                fs::write(&path, &bytes).map_err(io_at(&path))?;
+                write_content(tmp.path(), &content_uri(*r), &bytes)?;
                 Ok((bytes.len() as u64, f.is_some()))
             })
             .collect::<Result<Vec<_>, ExportError>>()?;
@@ -445,9 +503,79 @@ pub fn export(scene: &Path, out: &Path, opts: ExportOptions) -> Result<ExportRep
             report.contents_with_elements += u64::from(named);
         }
     }
+    let mut bundle_tiles = HashMap::new();
+    for batch in bundles.roots.chunks(64) {
+        let cuts: Vec<Vec<(Vec<u32>, f64)>> = batch.iter().map(|&b| bundle::cuts(s, b)).collect();
+        let mut need: Vec<u32> = cuts
+            .iter()
+            .flatten()
+            .flat_map(|(c, _)| c.iter().copied())
+            .filter(|&r| has_content(s, r))
+            .collect();
+        need.sort_by_key(|&r| (s.reps[r as usize].offset, r));
+        need.dedup();
+        let meshes: HashMap<u32, engine::format::RepMesh> = need
+            .iter()
+            .map(|&r| file.read_rep(r).map(|m| (r, m)))
+            .collect::<Result<_, _>>()
+            .map_err(at)?;
+        let done = batch
+            .par_iter()
+            .zip(&cuts)
+            .map(|(&b, cuts)| {
+                let mut tiles = Vec::with_capacity(cuts.len());
+                let mut stats = (0u64, 0u64, 0u64, 0u64);
+                for (k, (reps, max)) in cuts.iter().enumerate() {
+                    let parts: Vec<(&engine::format::RepMesh, Option<glb::Features>)> = reps
+                        .iter()
+                        .filter(|&&r| has_content(s, r))
+                        .map(|&r| (&meshes[&r], features(s, &objects, r, finest[r as usize])))
+                        .collect();
+                    if parts.is_empty() {
+                        tiles.push((*max, None));
+                        continue;
+                    }
+                    // One rep keeps its own quantisation; merged reps are
+                    // quantised again, which adds to the tile's error.
+                    let (bytes, named, err) = if let [(m, f)] = parts.as_slice() {
+                        (glb::encode(m, f.as_ref()), f.is_some(), *max)
+                    } else {
+                        let (m, f) = bundle::merge(&parts);
+                        let q = f64::from(m.quantization_error());
+                        (glb::encode(&m, f.as_ref()), f.is_some(), *max + q)
+                    };
+                    let uri = bundle::content_uri(b, k);
+                    write_content(tmp.path(), &uri, &bytes)?;
+                    stats.0 += 1;
+                    stats.1 += bytes.len() as u64;
+                    stats.2 += u64::from(named);
+                    tiles.push((err, Some(uri)));
+                }
+                stats.3 = cuts
+                    .iter()
+                    .flat_map(|(c, _)| c)
+                    .collect::<std::collections::HashSet<_>>()
+                    .len() as u64;
+                Ok((b, tiles, stats))
+            })
+            .collect::<Result<Vec<_>, ExportError>>()?;
+        for (b, tiles, (n, len, named, reps)) in done {
+            report.contents += n;
+            report.content_bytes += len;
+            report.contents_with_elements += named;
+            report.bundles += 1;
+            report.bundled_reps += reps;
+            bundle_tiles.insert(b, tiles);
+        }
+    }
+    for &b in &bundles.roots {
+        chains[b as usize] = bundle_tiles.get(&b).map_or(1, |t| t.len().max(1) as u32);
+    }
     let mut ts = Tileset {
         s,
-        split: Split::new(s, &chains, opts.max_tiles_per_json),
+        split: Split::new(s, &chains, opts.max_tiles_per_json, &bundles),
+        bundles: &bundles,
+        bundle_tiles,
         origin: file.header().origin,
         dir: tmp.path(),
         report,
@@ -456,6 +584,14 @@ pub fn export(scene: &Path, out: &Path, opts: ExportOptions) -> Result<ExportRep
     let report = ts.report;
     replace_dir(tmp, out)?;
     Ok(report)
+}
+
+/// Writes a content file at `uri` under `dir`.
+fn write_content(dir: &Path, uri: &str, bytes: &[u8]) -> Result<(), ExportError> {
+    let path = dir.join(uri);
+    let parent = path.parent().expect("content files are in a folder");
+    fs::create_dir_all(parent).map_err(io_at(parent))?;
+    fs::write(&path, bytes).map_err(io_at(&path))
 }
 
 /// Puts the finished folder `tmp` at `out`, replacing what is there.
@@ -482,5 +618,7 @@ fn replace_dir(tmp: tempfile::TempDir, out: &Path) -> Result<(), ExportError> {
     Ok(())
 }
 
+#[cfg(test)]
+mod bundle_tests;
 #[cfg(test)]
 mod tests;

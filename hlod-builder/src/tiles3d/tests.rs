@@ -7,7 +7,7 @@ use serde_json::Value;
 use super::glb::{self, Element, Features};
 use super::*;
 
-fn plant_scene(dir: &Path, objects: usize) -> PathBuf {
+pub(super) fn plant_scene(dir: &Path, objects: usize) -> PathBuf {
     let model = dir.join("p.glb");
     crate::scenegen::plant::write_plant(
         &crate::scenegen::plant::PlantParams {
@@ -24,7 +24,7 @@ fn plant_scene(dir: &Path, objects: usize) -> PathBuf {
 }
 
 /// Decodes a GLB's primitive back: vertices, indices, feature IDs.
-fn decode(bytes: &[u8]) -> (Value, Vec<PackedVertex>, Vec<u32>, Vec<f32>) {
+pub(super) fn decode(bytes: &[u8]) -> (Value, Vec<PackedVertex>, Vec<u32>, Vec<f32>) {
     // Read back through the gltf crate's GLB reader, not ours.
     let glb = gltf::binary::Glb::from_slice(bytes).expect("a GLB");
     let doc: Value = serde_json::from_slice(&glb.json).expect("JSON");
@@ -191,7 +191,7 @@ fn ifc_type_and_global_id_come_from_extras_or_the_name() {
 }
 
 /// Every tile of a tileset folder, by JSON file: (tile, parent's error).
-fn tiles(dir: &Path) -> (Vec<(Value, f64)>, usize) {
+pub(super) fn tiles(dir: &Path) -> (Vec<(Value, f64)>, usize) {
     let mut out = Vec::new();
     let mut files = vec![("tileset.json".to_string(), f64::INFINITY)];
     let mut n = 0;
@@ -262,6 +262,7 @@ fn the_tileset_has_a_tile_per_rep_with_its_error_and_splits_into_files() {
         &small,
         ExportOptions {
             max_tiles_per_json: 16,
+            ..ExportOptions::default()
         },
     )
     .unwrap();
@@ -330,7 +331,7 @@ fn the_export_is_deterministic_atomic_and_refuses_a_foreign_folder() {
     assert!(e.to_string().contains("nope.hlod"), "{e}");
 }
 
-fn walk(d: &Path) -> Vec<PathBuf> {
+pub(super) fn walk(d: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
     for e in fs::read_dir(d).unwrap() {
         let p = e.unwrap().path();

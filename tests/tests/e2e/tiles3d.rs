@@ -34,10 +34,14 @@ fn plant(dir: &Path) -> PathBuf {
     glb
 }
 
-fn exported(scene: &Path) -> (tempfile::TempDir, PathBuf) {
+fn exported(scene: &Path, bundle_bytes: u64) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("tiles");
-    export(scene, &out, ExportOptions::default()).unwrap();
+    let opts = ExportOptions {
+        bundle_bytes,
+        ..ExportOptions::default()
+    };
+    export(scene, &out, opts).unwrap();
     (dir, out)
 }
 
@@ -65,14 +69,16 @@ fn the_export_of_every_test_model_validates_without_errors_or_warnings() {
     ];
     for model in &models {
         let (_d, scene) = build(model);
-        // Small JSON files too, so that external tilesets are checked.
-        for limit in [10_000, 32] {
-            let dir = tmp.path().join(format!("t{limit}"));
+        // Small JSON files too, so that external tilesets are checked, and
+        // bundles (merged contents, null feature ids) of 16 KiB.
+        for (limit, bundle) in [(10_000, 0), (32, 0), (32, 16 << 10)] {
+            let dir = tmp.path().join(format!("t{limit}-{bundle}"));
             export(
                 &scene,
                 &dir,
                 ExportOptions {
                     max_tiles_per_json: limit,
+                    bundle_bytes: bundle,
                 },
             )
             .unwrap();
@@ -96,7 +102,7 @@ fn the_export_of_every_test_model_validates_without_errors_or_warnings() {
             assert_eq!(
                 (r["numErrors"].as_u64(), r["numWarnings"].as_u64()),
                 (Some(0), Some(0)),
-                "{} (at most {limit} tiles a file):\n{}",
+                "{} (at most {limit} tiles a file, bundles of {bundle} B):\n{}",
                 model.display(),
                 e2e_tests::web::issues(&r)
             );
@@ -170,8 +176,9 @@ fn coverage_mismatch(a: &RgbaImage, b: &RgbaImage) -> f64 {
 }
 
 /// Compares the browser's frame with ours from direction `dir`, at `reach`
-/// times the scene's diagonal from its centre.
-fn compare_in_browser(test: &str, model: &Path, dir: Vec3, reach: f32) {
+/// times the scene's diagonal from its centre, the export bundled by
+/// `bundle_bytes` (0: a tile per rep).
+fn compare_in_browser(test: &str, model: &Path, dir: Vec3, reach: f32, bundle_bytes: u64) {
     let Some(script) = e2e_tests::web::browser(test) else {
         return;
     };
@@ -185,7 +192,7 @@ fn compare_in_browser(test: &str, model: &Path, dir: Vec3, reach: f32) {
     let Some(ours) = our_frame(test, &scene, &pose) else {
         return;
     };
-    let (tmp, tiles) = exported(&scene);
+    let (tmp, tiles) = exported(&scene, bundle_bytes);
     let Some(server) = e2e_tests::servers::Nginx::start_web(test, &tiles) else {
         return;
     };
@@ -241,8 +248,16 @@ fn compare_in_browser(test: &str, model: &Path, dir: Vec3, reach: f32) {
             keep.display()
         )
     };
+    // Bundles refine a subtree at a time, where its worst rep needs it:
+    // at least our front, and at most twice it here (measured: 1.0002 of
+    // it from this view, which is near enough for the finest reps).
+    let bounds = if bundle_bytes == 0 {
+        0.97..=1.03
+    } else {
+        0.97..=2.0
+    };
     assert!(
-        (0.97..=1.03).contains(&ratio),
+        bounds.contains(&ratio),
         "the browser drew {their_tris} triangles, our front has {ours_tris}; {}",
         debug()
     );
@@ -285,6 +300,19 @@ fn a_browser_draws_the_plant_export_as_we_do_and_names_what_is_clicked() {
         &plant(tmp.path()),
         Vec3::new(0.6, 0.5, 0.8),
         0.3,
+        0,
+    );
+}
+
+#[test]
+fn a_browser_draws_the_bundled_plant_export_as_we_do_and_names_what_is_clicked() {
+    let tmp = tempfile::tempdir().unwrap();
+    compare_in_browser(
+        "a_browser_draws_the_bundled_plant_export_as_we_do_and_names_what_is_clicked",
+        &plant(tmp.path()),
+        Vec3::new(0.6, 0.5, 0.8),
+        0.3,
+        16 << 10,
     );
 }
 
@@ -295,5 +323,6 @@ fn a_browser_draws_a_bim_export_as_we_do_and_names_what_is_clicked() {
         &e2e_tests::data_dir().join("AC14-FZK-Haus.glb"),
         Vec3::new(-0.8, 0.6, 1.0),
         0.8,
+        0,
     );
 }
