@@ -86,11 +86,9 @@ enum Cmd {
         /// tilesets.
         #[arg(long, default_value_t = 10_000)]
         max_tiles_per_json: usize,
-        /// Export each subtree storing at most SIZE of reps (e.g. 256K) as
-        /// one chain of tiles whose contents merge its reps: far fewer,
-        /// larger tiles, which browsers load much faster, refined a bundle
-        /// at a time. 0: one tile per rep.
-        #[arg(long, default_value = "0", value_parser = parse_bundle)]
+        /// Merge each subtree storing at most SIZE (e.g. 256K) into one chain
+        /// of larger tiles, for browsers; 0: a tile per rep.
+        #[arg(long, default_value = "0", value_parser = hlod_builder::tiles3d::parse_bundle)]
         bundle: u64,
     },
     /// Generate a glTF scene.
@@ -253,10 +251,7 @@ fn run(cli: Cli) -> Result<()> {
                 t.elapsed().as_secs_f64()
             );
             if r.bundles > 0 {
-                println!(
-                    "{} bundles merge {} reps into chains of tiles",
-                    r.bundles, r.bundled_reps
-                );
+                println!("{} bundles merge {} reps", r.bundles, r.bundled_reps);
             }
             if r.paged_reps_skipped > 0 {
                 eprintln!(
@@ -369,18 +364,6 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
-}
-
-/// `--bundle`: 0, or a size of at least 1 KiB.
-fn parse_bundle(s: &str) -> Result<u64, String> {
-    if s.trim() == "0" {
-        return Ok(0);
-    }
-    let v = hlod_builder::build::memory::parse_size(s)?;
-    if v < 1024 {
-        return Err(format!("{s:?}: a bundle of at least 1K (or 0 for none)"));
-    }
-    Ok(v)
 }
 
 fn parse_grid(s: &str) -> Result<(usize, usize)> {

@@ -89,6 +89,18 @@ impl Default for ExportOptions {
     }
 }
 
+/// Parses `--bundle`: 0, or a size of at least 1 KiB.
+pub fn parse_bundle(s: &str) -> Result<u64, String> {
+    if s.trim() == "0" {
+        return Ok(0);
+    }
+    let v = crate::build::memory::parse_size(s)?;
+    if v < 1024 {
+        return Err(format!("{s:?}: a bundle of at least 1K (or 0 for none)"));
+    }
+    Ok(v)
+}
+
 /// What an export wrote.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct ExportReport {
