@@ -28,8 +28,8 @@ use std::collections::HashMap;
 use engine::format::{NONE, RepMesh};
 use engine::skeleton::Skeleton;
 
+use super::chain;
 use super::glb::{Element, Features};
-use super::{chain, has_content};
 
 /// Which nodes root a bundle, and which lie inside one.
 #[derive(Clone, Debug, Default)]
@@ -65,18 +65,12 @@ impl Bundles {
             stored[i] = own + kids.map(|c| stored[c]).sum::<u64>();
         }
         for (i, (node, &bytes_under)) in s.nodes.iter().zip(&stored).enumerate() {
-            if b.inside[i] {
-                let kids =
-                    node.first_child as usize..(node.first_child + node.child_count) as usize;
-                for c in kids {
-                    b.inside[c] = true;
-                }
-                continue;
-            }
-            if bytes_under <= bytes && node.child_count > 0 {
+            if !b.inside[i] && bytes_under <= bytes && node.child_count > 0 {
                 b.root[i] = true;
                 b.inside[i] = true;
                 b.roots.push(i as u32);
+            }
+            if b.inside[i] {
                 let kids =
                     node.first_child as usize..(node.first_child + node.child_count) as usize;
                 for c in kids {
@@ -163,7 +157,7 @@ pub fn cuts(s: &Skeleton, root: u32) -> Vec<(Vec<u32>, f64)> {
 /// each rep's features merged: elements by object, a triangle of a rep
 /// without features given the null id (`elements.len()`). `None` features
 /// when no rep names an element.
-pub fn merge(meshes: &[(&RepMesh, Option<Features>)]) -> (RepMesh, Option<Features>) {
+pub fn merge(meshes: &[(&RepMesh, Option<&Features>)]) -> (RepMesh, Option<Features>) {
     let total: usize = meshes.iter().map(|(m, _)| m.vertices.len()).sum();
     let (mut pos, mut nrm, mut col) = (
         Vec::with_capacity(total),
@@ -218,9 +212,4 @@ pub fn merge(meshes: &[(&RepMesh, Option<Features>)]) -> (RepMesh, Option<Featur
 /// The content path of bundle `root`'s tile `k`.
 pub fn content_uri(root: u32, k: usize) -> String {
     format!("content/b{}/{root}-{k}.glb", root / 1000)
-}
-
-/// Whether every rep of `reps` has no triangles to write.
-pub fn empty(s: &Skeleton, reps: &[u32]) -> bool {
-    !reps.iter().any(|&r| has_content(s, r))
 }

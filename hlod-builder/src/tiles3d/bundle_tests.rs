@@ -7,7 +7,7 @@ use engine::skeleton::Skeleton;
 
 use super::bundle::{self, Bundles};
 use super::glb::{self, Element, Features};
-use super::tests::{decode, plant_scene, tiles, walk};
+use super::tests::{decode, files, plant_scene, tiles};
 use super::*;
 
 /// The leaves under node `i`.
@@ -19,6 +19,14 @@ fn leaves(s: &Skeleton, i: u32, out: &mut Vec<u32>) {
     for c in n.first_child..n.first_child + n.child_count {
         leaves(s, c, out);
     }
+}
+
+/// The finest static rep of each of `leaves`.
+fn finest_of(s: &Skeleton, leaves: &[u32]) -> Vec<u32> {
+    leaves
+        .iter()
+        .filter_map(|&l| chain(s, &s.nodes[l as usize]).last().copied())
+        .collect()
 }
 
 /// Whether node `a` is `b` or above it.
@@ -63,10 +71,7 @@ fn each_cut_covers_every_leaf_once_and_the_chain_refines_to_the_finest() {
         }
         // The last cut is every leaf's finest static rep.
         let last: BTreeSet<u32> = cuts.last().unwrap().0.iter().copied().collect();
-        let finest: BTreeSet<u32> = ls
-            .iter()
-            .filter_map(|&l| chain(s, &s.nodes[l as usize]).last().copied())
-            .collect();
+        let finest: BTreeSet<u32> = finest_of(s, &ls).into_iter().collect();
         assert_eq!(last, finest);
         // No two equal cuts.
         for w in cuts.windows(2) {
@@ -97,22 +102,15 @@ fn a_merged_content_keeps_every_triangle_and_names_elements_or_none() {
         ..Element::default()
     };
     let tris = |m: &engine::format::RepMesh| m.indices.len() / 3;
+    let one = |m: &engine::format::RepMesh| Features {
+        triangle: vec![0; tris(m)],
+        elements: vec![el(7)],
+    };
+    let (f0, f2) = (one(&meshes[0]), one(&meshes[2]));
     let parts = vec![
-        (
-            &meshes[0],
-            Some(Features {
-                triangle: vec![0; tris(&meshes[0])],
-                elements: vec![el(7)],
-            }),
-        ),
+        (&meshes[0], Some(&f0)),
         (&meshes[1], None),
-        (
-            &meshes[2],
-            Some(Features {
-                triangle: vec![0; tris(&meshes[2])],
-                elements: vec![el(7)],
-            }),
-        ),
+        (&meshes[2], Some(&f2)),
     ];
     let (m, f) = bundle::merge(&parts);
     let n: usize = meshes.iter().map(tris).sum();
@@ -208,9 +206,8 @@ fn a_bundled_export_has_fewer_tiles_draws_the_finest_triangles_and_is_determinis
     for (root, (_, u)) in &last {
         let mut ls = Vec::new();
         leaves(s, *root, &mut ls);
-        let want: u64 = ls
-            .iter()
-            .filter_map(|&l| chain(s, &s.nodes[l as usize]).last().copied())
+        let want: u64 = finest_of(s, &ls)
+            .into_iter()
             .map(|r| u64::from(s.reps[r as usize].tri_count))
             .sum();
         let (_, _, indices, _) = decode(&fs::read(out.join(u)).unwrap());
@@ -219,19 +216,6 @@ fn a_bundled_export_has_fewer_tiles_draws_the_finest_triangles_and_is_determinis
     // Deterministic, and split into small files alike.
     let again = dir.path().join("b2");
     export(&scene, &again, opts).unwrap();
-    let files = |d: &Path| {
-        let mut v: Vec<(String, Vec<u8>)> = walk(d)
-            .into_iter()
-            .map(|p| {
-                (
-                    p.strip_prefix(d).unwrap().display().to_string(),
-                    fs::read(&p).unwrap(),
-                )
-            })
-            .collect();
-        v.sort();
-        v
-    };
     assert_eq!(files(&out), files(&again), "byte-identical");
     let small = dir.path().join("small");
     let r3 = export(

@@ -242,12 +242,31 @@ impl Tileset<'_> {
                 children.push(self.subtree_tile(c, last, pending));
             }
         }
-        // Build the chain from its finest tile up.
+        let uris: Vec<Option<String>> = (0..errors.len())
+            .map(|k| {
+                let r = reps.get(k).filter(|&&r| has_content(self.s, r));
+                r.map(|&r| content_uri(r))
+            })
+            .collect();
+        self.chain_tiles(&bv, &errors, &uris, children)
+    }
+
+    /// A chain of tiles with box `bv`, tile `k` of error `errors[k]` and
+    /// content `uris[k]`, each the only child of the one before; `children`
+    /// hang under the last.
+    fn chain_tiles(
+        &mut self,
+        bv: &Value,
+        errors: &[f64],
+        uris: &[Option<String>],
+        mut children: Vec<Value>,
+    ) -> Value {
+        // From the finest tile up.
         let mut tile: Option<Value> = None;
         for k in (0..errors.len()).rev() {
             let mut t = json!({"boundingVolume": bv.clone(), "geometricError": errors[k] as f32});
-            if let Some(&r) = reps.get(k).filter(|&&r| has_content(self.s, r)) {
-                t["content"] = json!({"uri": content_uri(r)});
+            if let Some(Some(uri)) = uris.get(k) {
+                t["content"] = json!({"uri": uri});
             }
             let kids = match tile.take() {
                 Some(below) => vec![below],
@@ -271,32 +290,25 @@ impl Tileset<'_> {
         }
     }
 
-    /// The chain of bundle `i` under a parent of error `bound`.
+    /// The chain of bundle `i` under a parent of error `bound` (written
+    /// once: its tiles are taken).
     fn bundle_tile(&mut self, i: u32, bound: f64) -> Value {
         let bv = bounding_box(&self.s.nodes[i as usize]);
-        let tiles = self.bundle_tiles.get(&i).cloned().unwrap_or_default();
-        let mut errors = Vec::with_capacity(tiles.len());
+        let (mut errors, uris): (Vec<f64>, Vec<Option<String>>) = self
+            .bundle_tiles
+            .remove(&i)
+            .unwrap_or_default()
+            .into_iter()
+            .unzip();
         let mut b = bound;
-        for (e, _) in &tiles {
+        for e in &mut errors {
             b = b.min(*e);
-            errors.push(b);
+            *e = b;
         }
         if errors.is_empty() {
             errors.push(bound);
         }
-        let mut tile: Option<Value> = None;
-        for k in (0..errors.len()).rev() {
-            let mut t = json!({"boundingVolume": bv.clone(), "geometricError": errors[k] as f32});
-            if let Some((_, Some(uri))) = tiles.get(k) {
-                t["content"] = json!({"uri": uri});
-            }
-            if let Some(below) = tile.take() {
-                t["children"] = json!([below]);
-            }
-            self.report.tiles += 1;
-            tile = Some(t);
-        }
-        tile.expect("at least one tile")
+        self.chain_tiles(&bv, &errors, &uris, Vec::new())
     }
 
     /// The error of node `c`'s first tile under a parent of error `bound`.
@@ -531,6 +543,11 @@ pub fn export(scene: &Path, out: &Path, opts: ExportOptions) -> Result<ExportRep
             .map(|&r| file.read_rep(r).map(|m| (r, m)))
             .collect::<Result<_, _>>()
             .map_err(at)?;
+        // A rep is in several cuts of its bundle: its elements are found once.
+        let named: HashMap<u32, Option<glb::Features>> = need
+            .par_iter()
+            .map(|&r| (r, features(s, &objects, r, finest[r as usize])))
+            .collect();
         let done = batch
             .par_iter()
             .zip(&cuts)
@@ -538,10 +555,10 @@ pub fn export(scene: &Path, out: &Path, opts: ExportOptions) -> Result<ExportRep
                 let mut tiles = Vec::with_capacity(cuts.len());
                 let mut stats = (0u64, 0u64, 0u64, 0u64);
                 for (k, (reps, max)) in cuts.iter().enumerate() {
-                    let parts: Vec<(&engine::format::RepMesh, Option<glb::Features>)> = reps
+                    let parts: Vec<(&engine::format::RepMesh, Option<&glb::Features>)> = reps
                         .iter()
                         .filter(|&&r| has_content(s, r))
-                        .map(|&r| (&meshes[&r], features(s, &objects, r, finest[r as usize])))
+                        .map(|&r| (&meshes[&r], named[&r].as_ref()))
                         .collect();
                     if parts.is_empty() {
                         tiles.push((*max, None));
@@ -550,7 +567,7 @@ pub fn export(scene: &Path, out: &Path, opts: ExportOptions) -> Result<ExportRep
                     // One rep keeps its own quantisation; merged reps are
                     // quantised again, which adds to the tile's error.
                     let (bytes, named, err) = if let [(m, f)] = parts.as_slice() {
-                        (glb::encode(m, f.as_ref()), f.is_some(), *max)
+                        (glb::encode(m, *f), f.is_some(), *max)
                     } else {
                         let (m, f) = bundle::merge(&parts);
                         let q = f64::from(m.quantization_error());

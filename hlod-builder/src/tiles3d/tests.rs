@@ -289,19 +289,6 @@ fn the_export_is_deterministic_atomic_and_refuses_a_foreign_folder() {
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
     export(&scene, &a, ExportOptions::default()).unwrap();
     export(&scene, &b, ExportOptions::default()).unwrap();
-    let files = |d: &Path| {
-        let mut v: Vec<(String, Vec<u8>)> = walk(d)
-            .into_iter()
-            .map(|p| {
-                (
-                    p.strip_prefix(d).unwrap().display().to_string(),
-                    fs::read(&p).unwrap(),
-                )
-            })
-            .collect();
-        v.sort();
-        v
-    };
     assert_eq!(files(&a), files(&b), "byte-identical");
     // An earlier export is replaced; a stale file in it goes.
     fs::write(a.join("stale.txt"), b"x").unwrap();
@@ -331,7 +318,20 @@ fn the_export_is_deterministic_atomic_and_refuses_a_foreign_folder() {
     assert!(e.to_string().contains("nope.hlod"), "{e}");
 }
 
-pub(super) fn walk(d: &Path) -> Vec<PathBuf> {
+/// Every file under `d`: its path relative to `d` and its bytes, sorted.
+pub(super) fn files(d: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<(String, Vec<u8>)> = walk(d)
+        .into_iter()
+        .map(|p| {
+            let name = p.strip_prefix(d).unwrap().display().to_string();
+            (name, fs::read(&p).unwrap())
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+fn walk(d: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
     for e in fs::read_dir(d).unwrap() {
         let p = e.unwrap().path();
